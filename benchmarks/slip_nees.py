@@ -24,6 +24,7 @@ from dataclasses import replace
 import numpy as np
 
 from features.slip_outputs import slip_model_outputs
+from pipelines.arguments import seed_value
 from pipelines.slip_model import resolve_slip_model
 from terrain.estimation.consistency import chi2_test, nees
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
@@ -35,11 +36,63 @@ TERRAINS = ("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS")
 
 
 def _seeds(spec: str) -> tuple[int, ...]:
-    out = []
+    """``--seeds``: seeds and increasing ranges ``A-B``, comma-separated, each seed once.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        A part that is not a seed (:func:`pipelines.arguments.seed_value`) or a range of
+        them, a range running backwards, or a seed given twice.
+    """
+    out: list[int] = []
     for part in spec.split(","):
-        lo, _, hi = part.partition("-")
-        out += range(int(lo), int(hi or lo) + 1)
+        lo, _, hi = part.strip().partition("-")
+        try:
+            first, last = seed_value(lo), seed_value(hi or lo)
+        except argparse.ArgumentTypeError as exc:
+            raise argparse.ArgumentTypeError(f"{part!r} is not a seed or a range A-B of "
+                                             f"seeds: {exc}") from None
+        if last < first:
+            raise argparse.ArgumentTypeError(f"the range {part!r} runs backwards")
+        out += range(first, last + 1)
+    twice = sorted({s for s in out if out.count(s) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"seed(s) {twice} given twice in {spec!r}")
     return tuple(out)
+
+
+def _fusion(override: dict):
+    """(the override without ``rho``, rho, the fusion settings) of one ``--settings`` item."""
+    cfg = dict(override)
+    rho = cfg.pop("rho", BATCH_FUSION.error_correlation)
+    return cfg, rho, replace(BATCH_FUSION, error_correlation=rho,
+                             filter=replace(BATCH_FUSION.filter, **cfg))
+
+
+def _settings(text: str) -> list:
+    """``--settings``: (override, rho, fusion settings) of every item of the JSON list.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not JSON, not a non-empty list of objects, or an item naming no field of the
+        filter settings or giving a value they refuse.
+    """
+    try:
+        items = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise argparse.ArgumentTypeError(f"not JSON: {exc}") from None
+    if not isinstance(items, list) or not items \
+            or not all(isinstance(item, dict) for item in items):
+        raise argparse.ArgumentTypeError(f"must be a non-empty JSON list of objects such as "
+                                         f"'[{{}}]', got {text!r}")
+    out = []
+    for item in items:
+        try:
+            out.append(_fusion(item))
+        except (TypeError, ValueError) as exc:     # an unknown field; ConfigError
+            raise argparse.ArgumentTypeError(f"{json.dumps(item)}: {exc}") from None
+    return out
 
 
 def main() -> int:
@@ -48,6 +101,11 @@ def main() -> int:
     parser.add_argument("--settings", default="[{}]", help="JSON list of filter overrides")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
+    for option, parse in (("--seeds", _seeds), ("--settings", _settings)):
+        try:        # both before the runs are simulated (minutes when not cached)
+            parse(getattr(args, option[2:]))
+        except argparse.ArgumentTypeError as exc:
+            parser.error(f"argument {option}: {exc}")
     model, _ = resolve_slip_model(None)
     runs = simulated_runs(SlipDataSpec(terrains=TERRAINS, scenarios=("straight_accel",),
                                        seeds=_seeds(args.seeds)), args.cache_dir)
@@ -55,10 +113,7 @@ def main() -> int:
     outputs = [slip_model_outputs(r, model, sim) for r in runs]
     with tracked_run("terrain-benchmark", "slip-nees", {"seeds": args.seeds,
                                                         "settings": args.settings}) as run:
-        for k, cfg in enumerate(json.loads(args.settings)):
-            rho = cfg.pop("rho", BATCH_FUSION.error_correlation)
-            fs = replace(BATCH_FUSION, error_correlation=rho,
-                         filter=replace(BATCH_FUSION.filter, **cfg))
+        for k, (cfg, rho, fs) in enumerate(_settings(args.settings)):
             per_run: dict[str, list[np.ndarray]] = {}
             for r, out in zip(runs, outputs):
                 tr = r.streams["truth"]
