@@ -207,7 +207,7 @@ def main() -> int:
                         default=["straight_accel", "orchard", "slope_turn", "random"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--measured-terrains", nargs="*", default=[],
+    parser.add_argument("--measured-terrains", nargs="*", type=terrain_name, default=[],
                         help="BorealTC terrains to run (default: all)")
     shipped = BATCH_FUSION.filter
     parser.add_argument("--bounds", nargs="+", type=_bound,
@@ -225,6 +225,12 @@ def main() -> int:
                              "ax, ay, wz)")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
+    if args.measured_terrains:      # a terrain with no run selected none, silently
+        held = {run.terrain for run in read_shipped("borealtc") if "imu" in run.streams}
+        missing = sorted(set(args.measured_terrains) - held)
+        if missing:
+            parser.error(f"argument --measured-terrains: no shipped BorealTC run with an IMU "
+                         f"on {', '.join(missing)} (they are on {', '.join(sorted(held))})")
     if args.online:
         return online(args)
     import pandas as pd

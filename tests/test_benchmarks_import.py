@@ -165,3 +165,35 @@ def test_cnn_device_takes_auto_and_torch_device_strings():
     parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index("cnn_device")])
     assert parser.parse_args(["--devices", "auto", "cpu", "cuda:1"]).devices == [
         "auto", "cpu", "cuda:1"]
+
+
+@pytest.mark.parametrize("terrain, named", [("GRASS", "with an IMU on GRASS (they are on"),
+                                            ("FOO", "unknown terrain 'FOO'")])
+def test_speed_bound_refuses_a_measured_terrain_without_runs(terrain, named, monkeypatch,
+                                                             capsys):
+    # `--online --measured-terrains GRASS` selected no run and ended in pandas' "KeyError:
+    # ... 'setting'"; FOO the same
+    path = SCRIPTS[[p.stem for p in SCRIPTS].index("speed_bound")]
+    spec = importlib.util.spec_from_file_location("benchmark_speed_bound_measured", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    monkeypatch.setattr(module, "online", lambda args: pytest.fail("ran"))
+    monkeypatch.setattr(sys, "argv", [path.name, "--online", "--measured-terrains", "snow",
+                                      terrain])
+    with pytest.raises(SystemExit) as stop:
+        module.main()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --measured-terrains" in err and named in err
+
+
+def test_speed_bound_takes_a_measured_terrain_in_any_case(monkeypatch):
+    path = SCRIPTS[[p.stem for p in SCRIPTS].index("speed_bound")]
+    spec = importlib.util.spec_from_file_location("benchmark_speed_bound_case", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    seen = []
+    monkeypatch.setattr(module, "online", lambda args: seen.append(args.measured_terrains))
+    monkeypatch.setattr(sys, "argv", [path.name, "--online", "--measured-terrains", "snow"])
+    module.main()
+    assert seen == [["SNOW"]]
