@@ -259,6 +259,31 @@ def sweep_side_force(terrains: list[str], factors: list[float], chi: bool = True
     return 0
 
 
+def _variants(ap: argparse.ArgumentParser, text: str, start: str | None, terrain: str
+              ) -> list[dict]:
+    """``--variants``: the JSON list of SoilParams overrides of ``start``'s soil, each
+    checked before any replay (a usage error otherwise)."""
+    try:
+        variants = json.loads(text)
+    except json.JSONDecodeError as exc:
+        ap.error(f"argument --variants: not JSON: {exc}")
+    if not isinstance(variants, list) or not variants \
+            or not all(isinstance(v, dict) for v in variants):
+        ap.error(f"argument --variants: must be a non-empty JSON list of objects such as "
+                 f"'[{{}}]', got {text!r}")
+    if start not in SOILS:
+        if any(variants):       # nothing to override: every variant would be the same run
+            ap.error(f"argument --variants: {terrain} has no SOILS entry to override; give "
+                     f"--base-soil, one of {', '.join(SOILS)}")
+        return variants
+    for var in variants:
+        try:
+            replace(SOILS[start], **var)
+        except (TypeError, ValueError) as exc:      # an unknown field; ConfigError
+            ap.error(f"argument --variants: {json.dumps(var)}: {exc}")
+    return variants
+
+
 def main() -> int:
     """Run the sweep; returns 0."""
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
@@ -302,7 +327,9 @@ def main() -> int:
         return per_run_chi(args.terrain, args.dataset)
     if args.heldout_table:
         return heldout_table(args.heldout_table, args.dataset)
-    variants = json.loads(args.variants)
+    # the soil every variant starts from: the terrain's own entry, else --base-soil's
+    start = args.terrain if args.terrain in SOILS else args.base_soil
+    variants = _variants(ap, args.variants, start, args.terrain)
     runs = [r for r in load_dataset(args.dataset) if r.terrain == args.terrain]
     if not runs:
         ap.error(f"--terrain {args.terrain}: {args.dataset} has no run of it (--dataset)")
@@ -320,8 +347,6 @@ def main() -> int:
           + " | chi spin | chi headland")
     print("v1 | " + " | ".join(f"{rmse(base[k], s, SCOPES[sc]):.4g}" for k in ("train", "held")
                                for s in ("wz", "cur") for sc in SCOPES))
-    # the soil every variant starts from: the terrain's own entry, else --base-soil's
-    start = args.terrain if args.terrain in SOILS else args.base_soil
     try:
         for var in variants:
             if start in SOILS:
