@@ -33,7 +33,7 @@ import traceback
 import numpy as np
 
 from features.windows import WindowConfig, make_windows
-from pipelines.arguments import seed_value
+from pipelines.arguments import output_file, seed_value
 from terrain.io.shipped import read_shipped
 from terrain.models.experiment import inference_pipeline
 from terrain.models.svm import SVMConfig
@@ -165,12 +165,19 @@ def main() -> None:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.split("\n\n")[0])
     parser.add_argument("--seeds", type=seed_value, nargs=2, default=[0, 300],
                         metavar=("FIRST", "END"))
-    parser.add_argument("--out", help="save every outcome (pickle)")
+    parser.add_argument("--out", type=output_file, help="save every outcome (pickle)")
     parser.add_argument("--compare", help="a saved --out of another version")
     args = parser.parse_args()
     if args.seeds[1] <= args.seeds[0]:      # range(FIRST, END) would be empty
         parser.error(f"argument --seeds: END {args.seeds[1]} must be above FIRST "
                      f"{args.seeds[0]} (seeds FIRST to END - 1)")
+    old = None
+    if args.compare:        # read before the fuzz, not after it
+        try:
+            with open(args.compare, "rb") as f:
+                old = pickle.load(f)
+        except (OSError, EOFError, pickle.UnpicklingError) as exc:
+            parser.error(f"argument --compare: cannot read {args.compare!r}: {exc}")
     models, runs = fit_models(read_shipped("borealtc"))
     results = {}
     for seed in range(*args.seeds):
@@ -194,9 +201,7 @@ def main() -> None:
     if args.out:
         with open(args.out, "wb") as f:
             pickle.dump(results, f)
-    if args.compare:
-        with open(args.compare, "rb") as f:
-            old = pickle.load(f)
+    if old is not None:
         changed = [k for k in results if k in old and old[k][0] != results[k][0]]
         better = sum(good_decisions(results[k][0])[1] > good_decisions(old[k][0])[1]
                      for k in changed)

@@ -81,3 +81,23 @@ def test_an_empty_seed_range_is_a_usage_error(fuzz, monkeypatch, capsys):
         fuzz["main"]()
     assert stop.value.code == 2
     assert "--seeds" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("option", ["--compare", "--out"])
+def test_an_unusable_compare_or_out_file_is_a_usage_error_before_the_fuzz(
+        fuzz, monkeypatch, capsys, tmp_path, option):
+    # a missing --compare file was a FileNotFoundError traceback, and an --out under a file
+    # a NotADirectoryError one, each after every seed had been replayed
+    import sys
+
+    def refuse(*a):
+        raise AssertionError("models fitted")
+
+    (tmp_path / "file").write_text("x")
+    path = tmp_path / ("missing.pkl" if option == "--compare" else "file/out.pkl")
+    monkeypatch.setitem(fuzz["main"].__globals__, "fit_models", refuse)
+    monkeypatch.setattr(sys, "argv", ["stream_clock_fuzz.py", option, str(path)])
+    with pytest.raises(SystemExit) as stop:
+        fuzz["main"]()
+    assert stop.value.code == 2
+    assert f"argument {option}" in capsys.readouterr().err
