@@ -22,11 +22,10 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
+from pipelines.arguments import DistinctSeeds, output_file, positive_integer, seed_value
 from terrain.models.compare import Cell, CompareConfig, cell_windows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import CNN_MODELS, ModelConfig, make_model
@@ -107,7 +106,7 @@ def main() -> int:
                         default=[0, 1, 2])
     parser.add_argument("--threads", type=positive_integer, default=2,
                         help="torch CPU threads per fit")
-    parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
+    parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     t0 = time.perf_counter()

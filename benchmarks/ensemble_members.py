@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -38,7 +37,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin
 from sklearn.pipeline import Pipeline
 
 from features.wheel_physics import WheelPhysicsFeatures
-from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
+from pipelines.arguments import DistinctSeeds, output_file, positive_integer, seed_value
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
@@ -148,7 +147,7 @@ def main() -> int:
                         help="initialisations of each CNN (model seed = split seed + 10 m)")
     parser.add_argument("--max-epochs", type=positive_integer, default=30)
     parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")
-    parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
+    parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     compare = CompareConfig()

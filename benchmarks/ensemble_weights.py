@@ -19,13 +19,12 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
-from pipelines.arguments import DistinctSeeds, positive_integer, seed_value
+from pipelines.arguments import DistinctSeeds, output_dir, positive_integer, seed_value
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
@@ -68,7 +67,7 @@ def main() -> int:
                         help="torch threads per CNN fit")
     parser.add_argument("--n-jobs", type=positive_integer, default=1,
                         help="joblib workers over folds")
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
     config = CompareConfig(datasets=(args.dataset,), signals=("all",), windows_s=(2.0,))
     ws, labels, groups = cell_windows(Cell("ensemble", "all", 2.0, args.dataset, 0),

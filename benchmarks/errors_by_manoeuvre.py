@@ -17,14 +17,13 @@ usage error.
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 import mlflow
 import numpy as np
 import pandas as pd
 from mlflow.exceptions import MlflowException
 
-from pipelines.arguments import non_negative_number
+from pipelines.arguments import non_negative_number, output_file
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.tracking import activate_store
 
@@ -65,7 +64,7 @@ def main() -> int:
     parser.add_argument("run_id", help="MLflow run of terrain cv (experiment terrain-cv)")
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--turning-rad-s", type=non_negative_number, default=0.1)
-    parser.add_argument("--out", type=Path, default=None, help="write the per-window table")
+    parser.add_argument("--out", type=output_file, default=None, help="write the per-window table")
     args = parser.parse_args()
     activate_store()
     try:

@@ -42,6 +42,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from pipelines.arguments import output_file
 from terrain.audit.ceiling import (ceiling_table, current_ceiling_samples,
                                    learned_transfer_samples, online_current_samples,
                                    online_yaw_rate_samples, yaw_rate_ceiling_samples)
@@ -228,9 +229,9 @@ def main() -> int:
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", choices=("borealtc", "vulpi"), default="borealtc",
                     help="shipped dataset (Husky runs)")
-    ap.add_argument("--out", default=None,
+    ap.add_argument("--out", type=output_file, default=None,
                     help="CSV of the tables (default docs/physics_v2_ceiling[_vulpi].csv)")
-    ap.add_argument("--figure", default=None,
+    ap.add_argument("--figure", type=output_file, default=None,
                     help="PNG of the figure (default docs/physics_v2_ceiling[_vulpi].png)")
     ap.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
     args = ap.parse_args()

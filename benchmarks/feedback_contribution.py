@@ -31,7 +31,8 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from pipelines.arguments import DistinctSeeds, positive_number, seed_value, sim_duration_s
+from pipelines.arguments import (DistinctSeeds, output_dir, positive_number, seed_value,
+                                 sim_duration_s)
 from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed_loop
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
@@ -107,7 +108,7 @@ def main() -> int:
     parser.add_argument("--duration-s", type=sim_duration_s, default=20.0)
     parser.add_argument("--strong-kp", type=positive_number, default=20.0)
     parser.add_argument("--decided", nargs="+", default=[], metavar="PLANT=LABEL")
-    parser.add_argument("--out", type=Path, default=Path("out/feedback_contribution"))
+    parser.add_argument("--out", type=output_dir, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     try:

@@ -22,13 +22,13 @@ from __future__ import annotations
 import argparse
 import time
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from pipelines.arguments import DistinctSeeds, integer_in, positive_integer, seed_value
+from pipelines.arguments import (DistinctSeeds, integer_in, output_file, positive_integer,
+                                 seed_value)
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
@@ -105,8 +105,8 @@ def main() -> int:
                         default=["svm", "cnn", "cnn-spectrogram"])
     parser.add_argument("--max-epochs", type=positive_integer, default=30)
     parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")
-    parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
-    parser.add_argument("--figure", type=Path, default=None, help="write the figure (PNG)")
+    parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
+    parser.add_argument("--figure", type=output_file, default=None, help="write the figure (PNG)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     # with 10 folds some folds' test runs lack a class: their per-fold recall is undefined

@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import positive_integer
+from pipelines.arguments import output_dir, positive_integer
 from terrain.models.compare import (grid_markdown, markdown_table, plot_comparison, plot_grid,
                                     score_rows, soft_vote, spans_grid, summary_table,
                                     with_default_keys)
@@ -77,7 +77,7 @@ def main() -> int:
                         help="members of one equal-weight vote; repeat for several votes "
                              "(default: svm cnn cnn-spectrogram)")
     parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 5, 10])
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "seed"]
     cells = pd.concat([_read(d / "compare_cells.csv").assign(folder=str(d))

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipelines.arguments import integer_in, seed_value
+from pipelines.arguments import integer_in, output_file, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (held_out_folds, raw_decisions, recipe_stream_names,
                                         score_stream, truth_at)
@@ -139,7 +139,7 @@ def main() -> int:
     parser.add_argument("--fold", type=integer_in(0, 4), default=0)
     parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()))
-    parser.add_argument("--out", type=Path, default=Path("docs/streaming_example.png"))
+    parser.add_argument("--out", type=output_file, default=Path("docs/streaming_example.png"))
     args = parser.parse_args()
     runs = load_dataset("borealtc")
     results, t0 = {}, time.perf_counter()

@@ -36,7 +36,7 @@ from types import MappingProxyType
 import numpy as np
 
 import terrain.sim.dynamics as dynamics
-from pipelines.arguments import positive_number
+from pipelines.arguments import output_file, positive_number
 from terrain.audit.frames import MANOEUVRES, prepare_frame
 from terrain.audit.physics import (TUNED_TERRAINS, PhysicsComparisonSettings, _errors, _on,
                                    alternate_split, gain_table, per_run_errors)
@@ -307,7 +307,7 @@ def main() -> int:
                     help="instead of a soil sweep: factors on the catalogue friction of the "
                          "Husky tyre on the --terrain list (rigid; friction_scale of "
                          "terrain.sim.forces.COMBINED_SLIP), the shipped k_S kept")
-    ap.add_argument("--heldout-table", metavar="CSV",
+    ap.add_argument("--heldout-table", type=output_file, metavar="CSV",
                     help="instead of a sweep: v2 (shipped parameters) against v1 on the runs no "
                          "parameter was chosen on (the held-out half of the TUNED_TERRAINS, "
                          "every run of the others), the gain table of terrain.audit.physics "

@@ -23,14 +23,13 @@ from __future__ import annotations
 
 import argparse
 import time
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 from sklearn.model_selection import StratifiedGroupKFold
 
 from features.windows import resolve_signals
-from pipelines.arguments import positive_integer, seed_value
+from pipelines.arguments import output_dir, positive_integer, seed_value
 from pipelines.train import DEFAULT_MODELS, DEFAULT_SIGNALS, DEFAULT_TRAIN_HOP_S
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline, load_windows
@@ -45,7 +44,7 @@ def main() -> int:
     parser.add_argument("--seed", type=seed_value, default=0)
     parser.add_argument("--threads", type=positive_integer, default=1,
                         help="torch threads per CNN fit")
-    parser.add_argument("--out", type=Path, required=True)
+    parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
     default = DEFAULT_MODELS[args.dataset]
     runs = load_dataset(args.dataset)

@@ -32,7 +32,6 @@ from __future__ import annotations
 
 import argparse
 import warnings
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -46,7 +45,7 @@ from sklearn.svm import SVC
 
 from features import calculators
 from features.transformers import linear_bands
-from pipelines.arguments import DistinctSeeds, seed_value
+from pipelines.arguments import DistinctSeeds, output_file, seed_value
 from terrain.models.cv import grouped_units, iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.svm import make_svm
@@ -242,7 +241,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--out", type=Path, default=None, help="write the table as CSV here")
+    parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     warnings.filterwarnings("ignore", message="y_pred contains classes not in y_true")

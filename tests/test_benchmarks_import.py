@@ -197,3 +197,30 @@ def test_speed_bound_takes_a_measured_terrain_in_any_case(monkeypatch):
     monkeypatch.setattr(sys, "argv", [path.name, "--online", "--measured-terrains", "snow"])
     module.main()
     assert seen == [["SNOW"]]
+
+
+OUTPUT_OPTIONS = ("--out", "--figure", "--heldout-table")
+
+
+@pytest.mark.parametrize("path", SCRIPTS, ids=[p.stem for p in SCRIPTS])
+def test_every_output_option_is_checked_before_any_work(path, tmp_path, capsys):
+    # `unseen_runs.py --out FILE/x` cross-validated every fold and then ended in
+    # mkdir's FileExistsError / NotADirectoryError traceback; a plain Path type takes
+    # anything, pipelines.arguments' output_file / output_dir refuse it while parsing
+    from pipelines.arguments import output_dir, output_file
+
+    parser = _parser(path)
+    outputs = [a for a in parser._actions if set(a.option_strings) & set(OUTPUT_OPTIONS)]
+    assert all(a.type in (output_file, output_dir) for a in outputs), \
+        [(a.option_strings[0], a.type) for a in outputs]
+    (tmp_path / "file").write_text("x")
+    for action in parser._actions:
+        if action.option_strings:
+            action.required = False
+        else:
+            action.nargs = "?"
+    for action in outputs:
+        with pytest.raises(SystemExit) as stop:
+            parser.parse_args([action.option_strings[0], str(tmp_path / "file" / "out.csv")])
+        assert stop.value.code == 2
+        assert action.option_strings[0] in capsys.readouterr().err
