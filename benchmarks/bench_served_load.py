@@ -45,6 +45,7 @@ import pandas as pd
 
 from pipelines.arguments import integer_in, positive_integer, positive_number
 from pipelines.serve import is_served_model
+from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
 from terrain.serving.evaluation import recipe_stream_names
@@ -208,7 +209,10 @@ def main() -> int:
             m = fit_stream_model(RECIPES[args.kind], runs, seed=0)
             model_dir = save_model(Path(tmp) / "model", m.pipeline, m.channels, m.window,
                                    m.classes, {"dataset": "borealtc", "kind": args.kind})
-        window = load_stream_model(model_dir).window
+        try:
+            window = load_stream_model(model_dir).window
+        except (ConfigError, OSError) as exc:     # --model DIR that holds no model
+            parser.error(f"argument --model: {exc}")
         request_s = max(args.request_s, window.window_s + 1.0)
         longest = max((r.duration_s for r in runs if all(s in r.streams for s in streams)),
                       default=0.0)

@@ -44,6 +44,7 @@ import psutil
 from features.windows import WindowConfig, make_windows
 from pipelines.arguments import integer_in, non_negative_number
 from pipelines.reference_workload import sort_reference_s
+from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
@@ -171,8 +172,13 @@ def main() -> int:
     runs = load_dataset("borealtc")
     recipe = RECIPES[args.kind]
     need = recipe_stream_names(recipe)
-    model = (load_stream_model(args.model) if args.model
-             else fit_stream_model(recipe, runs, seed=0))
+    if args.model:
+        try:
+            model = load_stream_model(args.model)
+        except (ConfigError, OSError) as exc:
+            parser.error(f"argument --model: {exc}")
+    else:
+        model = fit_stream_model(recipe, runs, seed=0)
     usable = [r for r in runs if all(s in r.streams for s in need)]
     longest = max(usable, key=lambda r: r.duration_s)
     timed = {k: v * 1e3 for k, v in latency(model, longest, args.warmup).items()}

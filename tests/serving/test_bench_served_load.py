@@ -156,3 +156,17 @@ def test_served_and_in_process_figures_in_ms_and_requests_per_second(script, mon
     assert logged["served_over_inprocess_throughput"] == pytest.approx(
         logged["served_throughput_rps"] / 500.0)
     assert "served / in-process" in capsys.readouterr().out
+
+
+def test_a_model_directory_that_is_no_model_is_a_usage_error(script, monkeypatch, capsys,
+                                                             tmp_path):
+    # `--model /nonexistent` was load_stream_model's ConfigError traceback
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
+    monkeypatch.setattr(sys, "argv", ["bench_served_load.py", "--kind", "wheels", "--model",
+                                      str(tmp_path / "none"), "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --model" in err and "does not exist" in err

@@ -157,3 +157,17 @@ def test_a_push_that_completes_several_decisions_or_none_is_not_timed(script, mo
     monkeypatch.setitem(script["latency"].__globals__, "StreamService", Service)
     out = script["latency"](_Model(_Pipeline()), None, 1)
     assert len(out["decision"]) == 4            # 5 one-decision pushes, the first warm-up
+
+
+def test_a_model_directory_that_is_no_model_is_a_usage_error(script, monkeypatch, capsys,
+                                                             tmp_path):
+    # `--model /nonexistent` was load_stream_model's ConfigError traceback
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "load_dataset", lambda name: [])
+    monkeypatch.setattr(sys, "argv", ["bench_serving.py", "--model", str(tmp_path / "none"),
+                                      "--minutes", "0", "--no-mlflow"])
+    with pytest.raises(SystemExit) as stop:
+        script["main"]()
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --model" in err and "does not exist" in err
