@@ -36,6 +36,7 @@ from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
+from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-audit"
 #: multipliers of the catalogue lateral friction in the what-if sweep
@@ -184,8 +185,6 @@ def main(args: argparse.Namespace) -> int:
     if args.no_mlflow:
         _audit(args, runs, settings, source, name, None)
     else:
-        from terrain.tracking import tracked_run
-
         # --compare-physics is no audit setting: its v1/v2 replays are said here
         with tracked_run(EXPERIMENT, run_name=name,
                          params={**source, **settings.as_params(),

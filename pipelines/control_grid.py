@@ -36,6 +36,7 @@ from terrain.control.traction import TractionControlConfig
 from terrain.errors import ConfigError, duplicated
 from terrain.io.jsonfile import strict_json
 from terrain.terramechanics.catalogue import get_terrain
+from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-control"
 SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
@@ -200,8 +201,6 @@ def main(args: argparse.Namespace) -> int:
     int
         Exit status, 0.
     """
-    from terrain.tracking import tracked_run
-
     # the catalogue reads terrain names in any case; the tables, plots and the soft-terrain
     # slip-limit bound (SOFT) compare them in upper case
     args.terrains = [str(t).upper() for t in args.terrains]

@@ -123,7 +123,7 @@ def test_control_grid_runs_the_estimator_gains_and_feed_forward_asked_for(tmp_pa
         raise _Stop()
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
+    monkeypatch.setattr(control_grid, "tracked_run", RecordingRun())
     monkeypatch.setattr(control_grid, "run_grid", capture)
     assert main(["control-grid", "--vehicles", "husky", "--terrains", "ice", "--no-tune",
                  "--husky-estimator", "observer", "--no-feed-forward", "--seeds", "3",
@@ -139,8 +139,10 @@ def test_control_grid_summary_names_its_seeds_and_bounds_the_straight_runs_only(
         tmp_path, monkeypatch):
     """summary.json: the evaluation seeds as given; the quasi-static slip-limit bound is
     that of the straight_accel runs on soft terrain (not the orchard's)."""
+    import pipelines.control_grid as control_grid
+
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
+    monkeypatch.setattr(control_grid, "tracked_run", RecordingRun())
     assert main(["control-grid", "--vehicles", "husky", "--terrains", "SNOW", "--scenarios",
                  "straight_accel", "orchard", "--no-tune", "--seeds", "3", "--duration-s",
                  "0.5", "--out", "g"]) == 0
@@ -415,12 +417,11 @@ def test_audit_logs_whether_it_compared_the_physics_versions(compare, tmp_path, 
     """``--compare-physics`` replays every run twice more and adds the v1/v2 gain table to
     the report; its MLflow run did not say it had (no parameter of it among the settings)."""
     import pipelines.audit as audit
-    import terrain.tracking as tracking
 
     monkeypatch.setattr(audit, "load_dataset", lambda name: [])
     monkeypatch.setattr(audit, "_audit", lambda *args: None)
     recording = RecordingRun()
-    monkeypatch.setattr(tracking, "tracked_run", recording)
+    monkeypatch.setattr(audit, "tracked_run", recording)
     argv = ["audit", "--dataset", "vulpi", "--json", str(tmp_path / "a.json")]
     assert main(argv + ["--compare-physics"] * compare) == 0
     assert recording.starts[-1]["compare_physics"] is compare

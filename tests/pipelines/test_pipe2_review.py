@@ -53,7 +53,9 @@ def test_control_grid_tunes_with_the_estimator_feed_forward_and_grids_asked_for(
         raise _Stop()
 
     monkeypatch.chdir(tmp_path)
-    monkeypatch.setattr("terrain.tracking.tracked_run", RecordingRun())
+    # (at the command's module: patched in terrain.tracking, the stand-in was bound for good
+    # by every command module main() imported for the first time meanwhile)
+    monkeypatch.setattr(control_grid, "tracked_run", RecordingRun())
     monkeypatch.setattr(control_grid, "tune_gains", capture)
     assert main(["control-grid", "--vehicles", "husky", "--terrains", "ICE",
                  "--husky-estimator", "observer", "--no-feed-forward", "--kp-grid", "3", "4",
