@@ -67,8 +67,9 @@ def pack_trees(estimators: Sequence, n_features: int) -> dict[str, np.ndarray]:
     Raises
     ------
     ConfigError
-        No estimator, or an estimator is unfitted, has a loss other than squared error,
-        more than one tree per iteration, or a categorical split.
+        No estimator, or an estimator is unfitted, was fitted on another number of
+        features than ``n_features``, has a loss other than squared error, more than one
+        tree per iteration, or a categorical split.
     """
     nodes, tree_start, model_start, baseline = [], [0], [0], []
     n_nodes = n_trees = 0
@@ -78,6 +79,9 @@ def pack_trees(estimators: Sequence, n_features: int) -> dict[str, np.ndarray]:
         if getattr(est, "loss", None) != "squared_error" or est.n_trees_per_iteration_ != 1:
             raise ConfigError("pack_trees supports single-output squared-error regressors "
                               f"only (loss {getattr(est, 'loss', None)!r})")
+        if est.n_features_in_ != n_features:   # (the compiled walk reads X unchecked)
+            raise ConfigError(f"pack_trees: {type(est).__name__} was fitted on "
+                              f"{est.n_features_in_} features, not n_features={n_features}")
         for (pred,) in est._predictors:
             nd = pred.nodes
             if nd["is_categorical"].any():

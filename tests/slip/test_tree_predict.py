@@ -72,6 +72,17 @@ def test_pack_rejects_what_it_cannot_reproduce():
         pack_trees([], 3)
 
 
+def test_pack_refuses_a_feature_count_other_than_the_estimators():
+    # pack_trees([m], 1) for a model fitted on 7 features walked X's row past its end
+    # (no bounds check in the compiled loop): other rows' values, silently; with 9, X's
+    # extra columns were taken where scikit-learn refuses the table
+    X, y = _data()
+    model = HistGradientBoostingRegressor(max_iter=5, random_state=0).fit(X, y)
+    for n_features in (1, X.shape[1] + 2):
+        with pytest.raises(ConfigError, match=f"fitted on {X.shape[1]} features"):
+            pack_trees([model], n_features)
+
+
 @pytest.fixture(scope="module")
 def one_run(tmp_path_factory):
     spec = SlipDataSpec(terrains=("SNOW",), scenarios=("random",), seeds=(0,), duration_s=12.0)
