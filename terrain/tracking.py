@@ -561,12 +561,18 @@ def tracked_run(experiment: str, run_name: str | None = None,
     Raises
     ------
     ConfigError
-        A store that cannot be used (:func:`check_store`), or ``experiment`` deleted in it,
-        before any run is opened.
+        A store that cannot be used (:func:`check_store`), a SQLite store that names no
+        database file (``sqlite:///``, ``sqlite:///:memory:``: kept in memory and lost at
+        exit), or ``experiment`` deleted in it, before any run is opened.
     """
     import mlflow
 
     uri = tracking_uri()
+    if uri.partition("://")[0] == "sqlite" and sqlite_database(uri) is None:
+        # (SQLAlchemy's in-memory or temporary database: the runs are gone at exit)
+        raise ConfigError(f"MLflow tracking store {uri} names no database file: its runs would "
+                          "be lost when the command ends; set MLFLOW_TRACKING_URI to "
+                          "sqlite:///<file> or unset it for sqlite:///<current folder>/mlflow.db")
     check_store(uri)
     with store_lock(uri):
         client = mlflow.MlflowClient(tracking_uri=uri)

@@ -255,6 +255,20 @@ def test_a_file_that_is_not_a_sqlite_database_is_refused_at_once(
     check_store(f"sqlite:///{empty}")                             # an empty file is a database
 
 
+@pytest.mark.parametrize("uri", ["sqlite:///", "sqlite:///:memory:", "sqlite://",
+                                 "sqlite:///?timeout=5"])
+def test_a_store_that_keeps_nothing_is_refused_before_any_run(tmp_path, monkeypatch, uri):
+    # MLFLOW_TRACKING_URI=sqlite:///$DB with DB unset: the runs went to a database in memory,
+    # lost when the command ended, after 'MLflow run ... (browse: mlflow ui
+    # --backend-store-uri sqlite:///)'
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    with pytest.raises(ConfigError, match="names no database file"):
+        with tracked_run("terrain-test", announce=False):
+            pytest.fail("a run was opened")
+    assert list(tmp_path.iterdir()) == []
+
+
 def test_a_server_that_answers_any_status_passes_the_check():
     # a proxy or an MLflow server without /health: answering is enough, MLflow says the rest
     class NotFound(http.server.BaseHTTPRequestHandler):
