@@ -18,6 +18,9 @@ def test_a_sample_belongs_to_the_first_step_at_or_after_it():
     np.testing.assert_array_equal(step_index(grid, t, clip=True), [0, 0, 1, 1, 3, 3, 4, 4])
     # the rounding tolerance is 1e-9 s, not more
     assert step_index(grid, [0.02 + 2e-9])[0] == 3
+    # and 1e-9 s itself is within it: a sample 1e-9 s after step 0 belongs to step 0
+    # (searchsorted's side "right" gave step 1)
+    assert step_index(grid, [1e-9])[0] == 0
 
 
 def test_the_filters_and_the_simulator_share_the_rule():
