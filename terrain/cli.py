@@ -15,7 +15,9 @@ import argparse
 import errno
 import importlib
 import os
+import signal
 import sys
+import threading
 import warnings
 from types import MappingProxyType
 from typing import Mapping, Sequence
@@ -113,13 +115,24 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"terrain: {kind}: {message}", file=sys.stderr)
 
 
+class _Terminated(KeyboardInterrupt):
+    """SIGTERM, raised where the command stands so that it unwinds as after Ctrl-C (an open
+    MLflow run ends ``FAILED``, temporary files go) instead of the process ending there."""
+
+
+def _terminate(signum, frame) -> None:
+    raise _Terminated()
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``terrain`` command; returns the process exit code.
 
     A project error (:class:`~terrain.errors.TerrainError`), a missing or unreadable file,
     or a model store error is printed as one line on stderr with exit status 2. Anything
     else (memory exhausted, a defect of terrain) is also one line, with exit status 1, and
-    Ctrl-C prints ``interrupted`` with status 130 (also while the commands load). A reader
+    Ctrl-C prints ``interrupted`` with status 130 (also while the commands load); SIGTERM
+    (``kill``, ``timeout``, a job scheduler) prints ``terminated`` with status 143 once the
+    command has unwound (its MLflow run ended ``FAILED``). A reader
     that closes standard output early (``terrain slip-table | head``) ends the command
     quietly with status 141, as a shell reports a writer stopped by SIGPIPE. ``--debug``
     shows the traceback instead.
@@ -134,7 +147,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     int
         Exit status: the sub-command's (0 on success), 2 after a reported error (argparse
         itself exits with 2 on a usage error), 1 after an unexpected one, 130 after Ctrl-C,
-        141 when standard output was closed by its reader.
+        143 after SIGTERM, 141 when standard output was closed by its reader.
     """
     try:
         from pipelines.arguments import check_output_files
@@ -147,46 +160,59 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("terrain: interrupted", file=sys.stderr)
         return 130
     debug = getattr(args, "debug", False)
-    with warnings.catch_warnings():
-        warnings.showwarning = _show_warning
-        try:
-            # the entry point owns MLflow's process-wide store (model logging, the registry
-            # and ``models:/`` URIs read it); the library never sets it
-            activate_store()
-            status = int(args._main(args) or 0)
-            sys.stdout.flush()      # a reader gone away fails here, not in Python's exit
-            return status
-        except BrokenPipeError:
-            if debug:
-                raise
-            _silence_stdout()
-            return 141
-        except (TerrainError, OSError) + store_errors() as exc:
-            if debug:
-                raise
-            print(f"terrain {args.command}: error: {_one_line(exc)}"
-                  f"{_while_writing(exc, parser, args)}", file=sys.stderr)
-            return 2
-        except KeyboardInterrupt:
-            if debug:
-                raise
-            print(f"terrain {args.command}: interrupted", file=sys.stderr)
-            return 130
-        except MemoryError as exc:
-            if debug:
-                raise
-            print(f"terrain {args.command}: error: not enough memory ({_one_line(exc)}); "
-                  "ask for less (a shorter window, fewer resamples or a smaller grid)",
-                  file=sys.stderr)
-            return 1
-        except Exception as exc:  # a defect of terrain itself: still one line, no traceback
-            if debug:
-                raise
-            print(f"terrain {args.command}: internal error: {type(exc).__name__}: "
-                  f"{_one_line(exc)} (a defect of terrain, not of your input as far as it "
-                  "could tell; rerun with --debug for the traceback and report it)",
-                  file=sys.stderr)
-            return 1
+    # SIGTERM unwinds the command (signal handlers can be set from the main thread only: a
+    # caller's thread keeps Python's default, which ends the process where it stands)
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    try:
+        with warnings.catch_warnings():
+            warnings.showwarning = _show_warning
+            try:
+                # the entry point owns MLflow's process-wide store (model logging, the registry
+                # and ``models:/`` URIs read it); the library never sets it
+                activate_store()
+                status = int(args._main(args) or 0)
+                sys.stdout.flush()      # a reader gone away fails here, not in Python's exit
+                return status
+            except BrokenPipeError:
+                if debug:
+                    raise
+                _silence_stdout()
+                return 141
+            except (TerrainError, OSError) + store_errors() as exc:
+                if debug:
+                    raise
+                print(f"terrain {args.command}: error: {_one_line(exc)}"
+                      f"{_while_writing(exc, parser, args)}", file=sys.stderr)
+                return 2
+            except _Terminated:
+                if debug:
+                    raise
+                print(f"terrain {args.command}: terminated (SIGTERM)", file=sys.stderr)
+                return 143
+            except KeyboardInterrupt:
+                if debug:
+                    raise
+                print(f"terrain {args.command}: interrupted", file=sys.stderr)
+                return 130
+            except MemoryError as exc:
+                if debug:
+                    raise
+                print(f"terrain {args.command}: error: not enough memory ({_one_line(exc)}); "
+                      "ask for less (a shorter window, fewer resamples or a smaller grid)",
+                      file=sys.stderr)
+                return 1
+            except Exception as exc:  # a defect of terrain itself: still one line, no traceback
+                if debug:
+                    raise
+                print(f"terrain {args.command}: internal error: {type(exc).__name__}: "
+                      f"{_one_line(exc)} (a defect of terrain, not of your input as far as it "
+                      "could tell; rerun with --debug for the traceback and report it)",
+                      file=sys.stderr)
+                return 1
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
 
 
 def _silence_stdout() -> None:

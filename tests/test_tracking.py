@@ -587,3 +587,50 @@ def test_an_integer_metric_beyond_the_float_range_is_skipped_as_non_finite(tmp_p
     logged = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id)
     assert logged.data.metrics == {"ok": 1.0}
     assert logged.data.tags["non_finite_metrics"] == "count,neg"
+
+
+_SLOW_COMMAND = '''
+import sys, time, types
+import terrain.cli as cli
+from terrain.tracking import tracked_run
+
+module = types.ModuleType("slow_pipeline")
+module.__doc__ = "A command that opens a run and works for a while."
+module.add_arguments = lambda parser: None
+
+
+def main(args):
+    with tracked_run("terrain-test", run_name="slow"):
+        time.sleep(120)
+    return 0
+
+
+module.main = main
+sys.modules["slow_pipeline"] = module
+cli.SUBCOMMANDS = {"slow": "slow_pipeline"}
+sys.exit(cli.main(["slow"]))
+'''
+
+
+def test_a_command_stopped_by_sigterm_ends_its_run_failed_in_one_line(tmp_path):
+    # SIGTERM (kill, timeout, a job scheduler) ended the process where it stood: the run
+    # stayed RUNNING in the store for ever and the command said nothing
+    import signal
+    import subprocess
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "MLFLOW_TRACKING_URI"}
+    proc = subprocess.Popen([sys.executable, "-c", _SLOW_COMMAND], cwd=tmp_path, env=env,
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        line = proc.stdout.readline()         # the run is announced once it is open
+        assert "MLflow run" in line
+        proc.send_signal(signal.SIGTERM)
+        out, err = proc.communicate(timeout=60)
+    finally:
+        proc.kill()
+    assert proc.returncode == 143
+    assert "terrain slow: terminated" in err and "Traceback" not in err
+    run_id = line.split()[2]
+    client = mlflow.MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'mlflow.db'}")
+    assert client.get_run(run_id).info.status == "FAILED"
