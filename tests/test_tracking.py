@@ -456,6 +456,25 @@ def test_a_run_whose_block_raises_ends_failed_and_not_active(tmp_path, monkeypat
     assert mlflow.MlflowClient(tracking_uri=mine).get_run(run.run_id).info.status == "FAILED"
 
 
+def test_a_run_on_a_store_other_than_mlflows_ends_finished(tmp_path, monkeypatch):
+    """The client-only path (the run's store is not MLflow's process-wide one, so the run
+    is not MLflow's active run) ends a block that returns ``FINISHED``, as the fluent path
+    does; only the raising block of the test above ends ``FAILED``."""
+    monkeypatch.chdir(tmp_path)
+    previous = mlflow.get_tracking_uri()
+    mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'other.db'}")   # exports the variable
+    mine = f"sqlite:///{tmp_path / 'mine.db'}"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", mine)
+    try:
+        with tracked_run("terrain-test", announce=False) as run:
+            assert mlflow.active_run() is None
+            run.log_metrics({"accuracy": 0.75})
+    finally:
+        mlflow.set_tracking_uri(previous)
+    logged = mlflow.MlflowClient(tracking_uri=mine).get_run(run.run_id)
+    assert logged.info.status == "FINISHED" and logged.data.metrics == {"accuracy": 0.75}
+
+
 def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(
         tmp_path, monkeypatch):
     """``code_version`` tags a run with the source tree's commit, ``-dirty`` when a tracked
