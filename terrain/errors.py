@@ -229,6 +229,11 @@ class ConfigError(TerrainError, ValueError):
     """
 
 
+#: Types Python or NumPy count as numbers that no setting takes as one: a boolean (``True``
+#: is 1), a NumPy duration (``np.timedelta64`` is a ``np.signedinteger``, whatever its unit)
+_NOT_NUMBERS = (bool, np.timedelta64)
+
+
 def config_numbers(owner: str, optional: tuple = (), **values) -> None:
     """Refuse configuration values that are not real numbers, before any range check.
 
@@ -248,15 +253,16 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
     Raises
     ------
     ConfigError
-        A value that is ``None`` (unless ``optional``), a boolean, text, bytes, complex, or
-        not one real number (a list, an array of several numbers, an object).
+        A value that is ``None`` (unless ``optional``), a boolean, text, bytes, complex, a
+        NumPy duration (``np.timedelta64``), or not one real number (a list, an array of
+        several numbers, an object).
     """
     import numbers
 
     for name, value in values.items():
         if value is None and name in optional:
             continue
-        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        ok = isinstance(value, numbers.Real) and not isinstance(value, _NOT_NUMBERS)
         if not ok and type(value).__module__ == "numpy" and getattr(value, "shape", None) == ():
             ok = value.dtype.kind in "iuf"  # a NumPy scalar or 0-d array of a real number
         if not ok:
@@ -325,12 +331,13 @@ def config_seed(name: str, value) -> None:
     Raises
     ------
     ConfigError
-        ``value`` not a real number, a boolean, not finite, not whole, or negative.
+        ``value`` not a real number, a boolean or a NumPy duration, not finite, not whole,
+        or negative.
     """
     import math
     import numbers
 
-    if not (isinstance(value, numbers.Real) and not isinstance(value, bool)
+    if not (isinstance(value, numbers.Real) and not isinstance(value, _NOT_NUMBERS)
             and math.isfinite(value) and int(value) == value and value >= 0):
         raise ConfigError(f"{name} must be an integer >= 0, got {value!r}")
 
@@ -355,11 +362,12 @@ def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
     Raises
     ------
     ConfigError
-        ``value`` a boolean, not an integer (Python or NumPy), or outside ``[lo, hi]``.
+        ``value`` a boolean or a NumPy duration, not an integer (Python or NumPy), or
+        outside ``[lo, hi]``.
     """
     import numbers
 
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool) \
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, _NOT_NUMBERS) \
         and lo <= value and (hi is None or value <= hi)   # (NumPy's bool is not Integral)
     if not ok:
         bound = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"

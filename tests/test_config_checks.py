@@ -172,3 +172,19 @@ def test_a_data_format_error_names_what_it_knows_and_skips_an_empty_source():
         "bad (file a.csv, column 't_s', line 6)"
     assert str(DataFormatError("bad", row=4)) == "bad (data row 4 (0-based))"
     assert str(DataFormatError("bad", path="")) == "bad"
+
+
+@pytest.mark.parametrize("check", ["config_positive", "config_fraction", "config_integer",
+                                   "config_seed"])
+def test_a_numpy_duration_is_not_a_number(check):
+    # np.timedelta64 is an integer type to NumPy (a subclass of np.signedinteger):
+    # config_positive raised a bare UFuncTypeError comparing it with 0.0, and config_integer
+    # and config_seed took np.timedelta64(5, "s") and np.timedelta64(5, "ms") alike as 5
+    import terrain.errors
+
+    call = {"config_positive": lambda f, v: f("SimConfig", dt_s=v),
+            "config_fraction": lambda f, v: f("traction_peak", fraction=v),
+            "config_integer": lambda f, v: f("n_epochs", v, 1),
+            "config_seed": lambda f, v: f("seed", v)}[check]
+    with pytest.raises(ConfigError, match="dt_s|fraction|n_epochs|seed"):
+        call(getattr(terrain.errors, check), np.timedelta64(5, "s"))
