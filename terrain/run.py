@@ -220,10 +220,18 @@ class Run:
             If the run has no such stream.
         DataFormatError
             The stream has fewer than 2 samples (no step: the rate was NaN without a
-            word), naming the run, the stream and the run's source.
+            word), or its median time step is not finite and > 0 (times repeated, going
+            back, NaN or infinite: :func:`times_out_of_order`), naming the run, the stream,
+            the run's source and the first row out of order.
         """
         t = self.streams[stream][TIME].to_numpy()
         if t.size < 2:
             raise DataFormatError(f"run {self.run_id}: stream {stream!r} has {t.size} "
                                   f"sample(s): no time step to give a rate", self.source, TIME)
-        return float(1.0 / pd.Series(t).diff().median())
+        step = float(pd.Series(t).diff().median())
+        if not 0.0 < step < np.inf:     # (a Run built in memory is not checked)
+            bad = times_out_of_order(t)
+            raise DataFormatError(f"run {self.run_id}: stream {stream!r} has no positive "
+                                  f"finite median time step (median {step!r} s): no rate",
+                                  self.source, TIME, int(bad[0]) if bad.size else None)
+        return 1.0 / step

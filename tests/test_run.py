@@ -107,3 +107,14 @@ def test_a_row_after_an_infinite_time_is_not_counted_again():
             assert times_out_of_order([0.0, bad, 1.0, 2.0], strict).tolist() == [1]
     assert times_out_of_order([0.0, np.inf, np.inf, 3.0, 2.0]).tolist() == [1, 2, 4]
     assert times_out_of_order([0.0, 2.0, 1.0, 3.0]).tolist() == [2]
+
+
+@pytest.mark.parametrize("t", [[0.0, 0.0, 0.0], [0.0, -0.01, -0.02], [0.0, np.nan, np.nan],
+                               [0.0, np.inf]])
+def test_the_rate_of_a_stream_whose_times_break_the_contract_is_an_error_naming_it(t):
+    # a Run built in memory is not checked: repeated times gave a rate of inf Hz, times
+    # going back -100 Hz, NaN times NaN and an infinite time 0 Hz, each returned as a rate
+    run = Run("r/X/00", "r", None, {"wheels": pd.DataFrame({"t_s": t})}, source="pro_00.csv")
+    with pytest.raises(DataFormatError, match=r"run r/X/00: stream 'wheels' has no positive "
+                       r"finite median time step .*\(file pro_00.csv, column 't_s'"):
+        run.rate_hz("wheels")
