@@ -227,6 +227,12 @@ def test_a_write_error_naming_no_file_names_the_output_options_given(
     failure = ConfigError("x" * 600)
     assert main(argv) == 2
     assert capsys.readouterr().err == "terrain control-sim: error: " + "x" * 497 + "...\n"
+    # a write error that names its file is that file's, not the options' (it may be a
+    # temporary file or a cache): no 'while writing' is added
+    failure = OSError(errno.ENOSPC, "No space left on device", str(tmp_path / "tmp.bin"))
+    assert main(argv) == 2
+    assert capsys.readouterr().err == ("terrain control-sim: error: No space left on device: "
+                                       f"{tmp_path / 'tmp.bin'}\n")
 
 
 def test_slip_model_dir_errors_list_what_the_folder_holds_and_the_loaders_reason(
