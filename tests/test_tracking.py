@@ -396,6 +396,46 @@ def test_a_store_lock_held_too_long_is_a_one_line_config_error(tmp_path, monkeyp
         pass
 
 
+def test_a_store_lock_held_briefly_is_waited_for(tmp_path):
+    """Another process opening the store holds its lock for a moment: the second opening
+    waits for it (up to STORE_LOCK_TIMEOUT_S, 300 s), it does not fail."""
+    import threading
+
+    from terrain import tracking
+
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    held = threading.Event()
+
+    def hold():
+        with tracking.store_lock(uri):
+            held.set()
+            time.sleep(0.5)
+
+    holder = threading.Thread(target=hold)
+    holder.start()
+    try:
+        assert held.wait(10)
+        start = time.monotonic()
+        with tracking.store_lock(uri):
+            waited = time.monotonic() - start
+    finally:
+        holder.join(10)
+    assert 0.2 < waited < 10
+
+
+def test_a_server_that_takes_the_connection_but_never_answers_is_refused_after_5_s():
+    """README: a server that does not answer within 5 s is a one-line error (a closed port
+    is refused at once, so only a silent server exercises the wait)."""
+    with socket.socket() as server:
+        server.bind(("127.0.0.1", 0))
+        server.listen(1)          # the connection is taken, no answer ever comes
+        uri = f"http://127.0.0.1:{server.getsockname()[1]}"
+        start = time.monotonic()
+        with pytest.raises(ConfigError, match=r"does not answer: .*\(waited up to 5 s\)"):
+            check_store(uri)
+        assert 4.0 < time.monotonic() - start < 30.0
+
+
 @pytest.mark.parametrize("uri, database", [
     ("sqlite:///mlflow.db", "mlflow.db"),
     ("sqlite:////abs/dir/mlflow.db", "/abs/dir/mlflow.db"),
