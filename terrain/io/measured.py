@@ -789,6 +789,27 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
                      **checks, "files": {k: str(p) for k, p in files.items()}})
 
 
+def folder_text(name: str) -> str:
+    """A folder name as text that every later step can hold (a run id, a label).
+
+    A name that is not UTF-8 on disk (``sim\\xff``) comes from the file system with lone
+    surrogates (Python's ``surrogateescape``), which pandas' text columns, MLflow and CSV
+    files cannot encode: such bytes are written as ``\\xff`` escapes, every other
+    character is kept.
+
+    Parameters
+    ----------
+    name : str
+        Folder name as :class:`pathlib.Path` gives it.
+
+    Returns
+    -------
+    str
+        The name, its undecodable bytes as backslash escapes.
+    """
+    return name.encode("utf-8", "surrogateescape").decode("utf-8", "backslashreplace")
+
+
 def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
     """Read one run of one terrain folder (``terrain stream``'s RUN_DIR).
 
@@ -834,8 +855,9 @@ def read_folder_run(run_dir: str | Path, index: str | None = None) -> Run:
         index = next(iter(runs))
     if index not in runs:
         raise ConfigError(f"no run {index!r} in {shown}; available: {sorted(runs)}")
-    return read_run(runs[index], f"{folder.name}/{index}", folder.parent.name,
-                    folder.name.upper())
+    name = folder_text(folder.name)
+    return read_run(runs[index], f"{name}/{index}", folder_text(folder.parent.name),
+                    name.upper())
 
 
 def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = False,
@@ -879,7 +901,7 @@ def read_runs_path(path: str | Path, *, labelled: bool = True, progress: bool = 
             raise _mixed_layout(path, folder_run_files(path), sub)
         root, only = path.parent, path.name
     try:
-        name = root.resolve().name
+        name = folder_text(root.resolve().name)
     except (OSError, RuntimeError) as exc:  # a symbolic link loop: RuntimeError before 3.13
         raise DataFormatError(f"not a folder of runs: {exc}", path=str(path)) from None
     return read_runs_dir(root, name, labelled=labelled, progress=progress, only=only,
@@ -925,7 +947,7 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     """
     config_flags("read_runs_dir", labelled=labelled, progress=progress)
     root = Path(root)
-    dataset = dataset or root.resolve().name
+    dataset = dataset or folder_text(root.resolve().name)
     runs = []
     if only is None:
         found = list_run_files(root)
@@ -939,6 +961,7 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
         from tqdm.auto import tqdm
         items = tqdm(items, desc="reading runs", unit="run")
     for (folder, index), files in items:
+        folder = folder_text(folder)
         runs.append(read_run(files, f"{dataset}/{folder}/{index}", dataset,
                              folder.upper() if labelled else None, **reader_options))
     return runs
