@@ -10,12 +10,15 @@ Method (recorded in the returned frame's ``attrs``):
    vibration into the band of interest. A segment of 15 samples or fewer is padded by
    fewer samples than the filter's default (all but one), so it is filtered too. The odd
    extension (point reflection about each end sample) keeps a long segment's end values
-   close (a linear ramp's to 1e-5 of its span), not a short one's: filtered with one sample
-   of padding, two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817, become 0.196 and
-   0.283. A one-sample segment is kept as it is. A NaN or inf sample is kept, and each
-   run of finite samples around it is filtered on its own (the filter spread it over its
-   whole segment), so it spoils only the grid points next to it (step 3). A stream
-   between 1 and 1.5 times the grid rate is NOT filtered (the margin keeps a clock's
+   close for a stream at twice the grid rate (the 100 Hz IMU on the 50 Hz grid: a linear
+   ramp's to 1e-5 of its span), less so for a faster one, whose filter settles over more
+   samples than the padding's 15 (a 3 s ramp at 200 Hz on a 10 Hz grid misses its ends by
+   0.2 % of its span, at 1000 Hz on a 6.5 Hz grid by 2.4 %), and not a short one's: filtered
+   with one sample of padding, two samples of a 30 Hz tone at 100 Hz, 0.296 and 0.817,
+   become 0.196 and 0.283. A one-sample segment is kept as it is. A NaN or inf sample is
+   kept, and each run of finite samples around it is filtered on its own (the filter
+   spread it over its whole segment), so it spoils only the grid points next to it (step
+   3). A stream between 1 and 1.5 times the grid rate is NOT filtered (the margin keeps a clock's
    jitter about the grid rate from filtering a stream sampled at it); no shipped or
    simulated stream falls there, but content of such a stream between 0.5 x ``rate_hz``
    and its own Nyquist frequency aliases (a 30 Hz tone of a 70 Hz stream reads as 20 Hz on

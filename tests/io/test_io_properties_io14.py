@@ -307,3 +307,17 @@ def test_a_corrupted_file_is_a_named_error_or_a_counted_repair(tmp_path_factory,
         assert what == "truncate" and rows[i][:-1] == original[i][:-1]
         assert original[i][-1].startswith(rows[i][-1]) and rows[i][-1] != ""
     assert len(wheels) == n and np.isfinite(wheels.to_numpy(dtype=float)).all()
+
+
+@pytest.mark.parametrize("native_hz, rate_hz, bound, beyond", [
+    (100.0, 50.0, 1e-5, 0.0),        # the shipped case: the module's 1e-5 of the span
+    (200.0, 10.0, 3e-3, 1e-3),       # the filter settles over more than its 15 samples of
+    (1000.0, 6.5, 3e-2, 1e-2),       # padding: 0.2 % and 2.4 % of the span
+])
+def test_a_filtered_ramp_misses_its_ends_by_what_the_module_says(native_hz, rate_hz, bound,
+                                                                 beyond):
+    # the module said "a linear ramp's to 1e-5 of its span" for every filtered stream
+    t = np.arange(int(3 * native_hz)) / native_hz
+    frame = align_streams(make_run({"a": _stream(t, "x", 0.0, 1.0)}), ("a",), rate_hz=rate_hz)
+    miss = np.abs(frame["x"].to_numpy() - frame[TIME].to_numpy()).max() / t[-1]
+    assert beyond <= miss <= bound
