@@ -321,3 +321,27 @@ def test_a_filtered_ramp_misses_its_ends_by_what_the_module_says(native_hz, rate
     frame = align_streams(make_run({"a": _stream(t, "x", 0.0, 1.0)}), ("a",), rate_hz=rate_hz)
     miss = np.abs(frame["x"].to_numpy() - frame[TIME].to_numpy()).max() / t[-1]
     assert beyond <= miss <= bound
+
+
+@FAST
+@given(n=st.integers(3, 30), text_rows=st.sets(st.integers(0, 29), min_size=1, max_size=29),
+       cell=st.sampled_from(["abc", "1.2.3", "SNOW", "0x1F", "1e", "--1"]))
+def test_an_extra_stream_channel_partly_text_is_refused_not_read_as_text(
+        tmp_path_factory, n, text_rows, cell):
+    # a channel of an extra stream is text only when every cell is (a per-sample label);
+    # a number column with some text cells is a NonNumericError at the first, not a text
+    # channel (the alignment would leave it out without a word)
+    rows_ = sorted(r for r in text_rows if r < n)
+    path = tmp_path_factory.mktemp("txt") / "truth_00.csv"
+    rows = [[f"{0.1 * i:.9g}", cell if i in rows_ else f"{1.5 * i:.9g}"] for i in range(n)]
+    _write(path, ["time", "v"], rows)
+    if len(rows_) == n:
+        frame, _ = read_stream_csv(path, "truth")
+        assert list(frame["v"]) == [cell] * n
+        return
+    if not rows_:
+        return
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(path, "truth")
+    err = info.value
+    assert (err.path, err.column, err.line) == (str(path), "v", rows_[0] + 2)
