@@ -25,7 +25,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.jsonfile import json_ready
-from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES
+from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, NON_FINITE_WORDS, STREAM_NAMES
 from terrain.run import TIME, Run
 
 #: Number format of the written CSV files (see the module's note on timestamps).
@@ -179,6 +179,38 @@ def free_index(folder: str | Path) -> int:
     return idx
 
 
+def _text_read_back(cell) -> bool:
+    """Whether a cell of a text channel reads back as written: the readers keep a channel
+    as text only when no cell is a number, a non-finite word or empty, strip every cell and
+    take one line per row."""
+    if not isinstance(cell, str) or cell != cell.strip() or "\n" in cell or "\r" in cell:
+        return False
+    if cell.lower() in NON_FINITE_WORDS:
+        return False
+    try:
+        float(cell)
+    except ValueError:
+        return bool(np.isnan(pd.to_numeric(pd.Series([cell]), errors="coerce")[0]))
+    return False
+
+
+def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
+    """ConfigError for a text channel that the readers would refuse or change (a line
+    break, a number or an empty cell among text, spaces around a label)."""
+    for (kind, frame), name in zip(frames.items(), run.streams):
+        for column in frame.columns:
+            cells = frame[column]
+            if cells.dtype.kind in "iufcbmM" or not any(isinstance(c, str) for c in cells):
+                continue
+            bad = next((k for k, c in enumerate(cells) if not _text_read_back(c)), None)
+            if bad is not None:
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: text column {column!r} holds "
+                    f"{cells.iloc[bad]!r} at row {bad}, which {kind}_XX.csv would not read "
+                    "back as written (a text channel's cells are one-line labels without "
+                    "spaces around them, none a number, empty or a non-finite word)")
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -219,7 +251,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), a terrain that is not a folder name (``A/B``, ``..``) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
-        ``SNOW``); nothing is written then.
+        ``SNOW``), or a text column the readers would refuse or change (a cell with a line
+        break or spaces around it, a number, an empty or non-finite cell among text);
+        nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -243,6 +277,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
                           f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
+    _refuse_unreadable_text(run, frames)
     folder = Path(out_dir) / terrain
     if index is not None:    # (True was run 01, 2.7 run 02, "x" int()'s bare ValueError)
         config_integer("write_run.index", index, 0, 99)
