@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from terrain.control.desired_slip import (FALLBACK_LABEL, DesiredSlipConfig, build_slip_table,
                                           select_target)
+from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (BRAKING, TRACTION, SlipTargets, TractionControlConfig,
                                       TractionController, TractionState, traction_control_step)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -308,3 +309,37 @@ def test_non_finite_input_gives_the_safe_output_and_clears_the_memory(
     assert out.safe[0] and not out.enabled[0]
     assert out.omega_cmd_rad_s[0] == ll and out.correction_rad_s[0] == 0.0
     assert new.integral[0] == 0.0 and new.correction[0] == 0.0 and not new.active[0]
+
+
+@FAST
+@given(st.lists(st.tuples(omega_s, speed, st.floats(0.0, 0.1)), min_size=1, max_size=30),
+       st.floats(-2.0, 5.0), st.floats(0.0, 0.9), st.floats(0.05, 1.0))
+def test_feedforward_only_lowers_the_wheel_speed_and_its_reference_never_falls_below_zero(
+        seq, a_max, s_t, radius):
+    """The feed-forward limit only lowers |omega_ll| (never raises it, never crosses zero:
+    the command after it is ``sign(omega_ll) omega_lim`` or ``omega_ll``), its reference
+    speed stays >= 0, above the rim speed only where the estimate lifts it, and grows by at
+    most ``max(a_max, 0) dt`` while engaged; a limited command slips exactly ``s_t`` over the
+    reference (``omega_lim = v_ref / (r (1 - s_t))``), and it is deterministic."""
+    v_ref, engaged = np.zeros(1), None
+    for ll, v_est, dt in seq:
+        ff = feedforward_step(v_ref, np.array([v_est]), np.array([ll]), a_max, s_t, radius, dt,
+                              engaged)
+        again = feedforward_step(v_ref, np.array([v_est]), np.array([ll]), a_max, s_t, radius,
+                                 dt, engaged)
+        for f1, f2 in zip(ff, again):
+            np.testing.assert_array_equal(f1, f2)
+        cmd = ll + ff.correction_rad_s[0]
+        assert abs(cmd) <= abs(ll) + 1e-12 and cmd * ll >= 0.0
+        assert ff.v_ref_m_s[0] >= 0.0
+        assert ff.v_ref_m_s[0] <= max(abs(v_est), v_ref[0] + max(a_max, 0.0) * dt) + 1e-12
+        assert ff.engaged[0] == (ff.correction_rad_s[0] != 0.0)
+        v_est_mag = abs(v_est)
+        # the reference never outruns the wheel's own rim speed unless the estimate lifts it
+        assert ff.v_ref_m_s[0] <= max(v_est_mag, abs(ll) * radius) + 1e-12
+        if engaged is not None and engaged[0]:   # an engaged limit is released at a_max
+            assert ff.v_ref_m_s[0] <= v_ref[0] + max(a_max, 0.0) * dt + 1e-12
+        if ff.engaged[0]:   # the limited command slips exactly s_t over the reference
+            rim = abs(cmd) * radius   # 0: a reference of 0 holds the wheel still
+            assert rim - ff.v_ref_m_s[0] == pytest.approx(s_t * rim, abs=1e-9)
+        v_ref, engaged = ff.v_ref_m_s, ff.engaged
