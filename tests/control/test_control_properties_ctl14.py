@@ -343,3 +343,42 @@ def test_feedforward_only_lowers_the_wheel_speed_and_its_reference_never_falls_b
             rim = abs(cmd) * radius   # 0: a reference of 0 holds the wheel still
             assert rim - ff.v_ref_m_s[0] == pytest.approx(s_t * rim, abs=1e-9)
         v_ref, engaged = ff.v_ref_m_s, ff.engaged
+
+
+@FAST
+@given(configs, targets_s, st.lists(step_inputs, min_size=1, max_size=20),
+       st.lists(step_inputs, min_size=1, max_size=20))
+def test_disabled_correction_only_decays(cfg, targets, seq, disabled):
+    """Bumpless disable: while the chassis is too slow the held correction only decays in
+    magnitude (``release_tau_s``), whatever the measurements, for commands within omega_max."""
+    _, state = _run(cfg, targets, seq)
+    w = cfg.omega_max_rad_s
+    prev = abs(state.correction[0])
+    for ll, wm, v, a, _, dt, sl in disabled:
+        ll = min(max(ll, -w), w)
+        out, state = traction_control_step(
+            cfg, state, targets, np.array([ll]), np.array([wm]), np.array([v]), np.array([a]),
+            0.0, dt, slip=None if sl is None else np.array([sl]))
+        assert not out.enabled[0]
+        assert abs(out.correction_rad_s[0]) <= prev + 1e-12
+        prev = abs(out.correction_rad_s[0])
+
+
+@FAST
+@given(configs, targets_s, st.lists(step_inputs, min_size=1, max_size=20),
+       st.floats(1e-4, 0.2))
+def test_enable_with_zero_error_does_not_jump_beyond_the_held_correction(cfg, targets, seq,
+                                                                         dt):
+    """Bumpless enable: a unit enabled with zero error (kd 0, ki > 0) applies at most the
+    correction it held while disabled (the integral starts from it), never a stale integral."""
+    _, state = _run(cfg, targets, seq)
+    ll = 0.5 * cfg.omega_max_rad_s
+    one = (lambda x: np.array([x]))  # noqa: E731
+    held, state = traction_control_step(cfg, state, targets, one(ll), one(ll), one(0.5),
+                                        one(0.0), 0.0, dt, slip=one(0.0))
+    target = targets.traction if cfg.one_sided else targets.steady   # steady: a = 0
+    out, _ = traction_control_step(cfg, state, targets, one(ll), one(ll), one(0.5), one(0.0),
+                                   1.0, dt, slip=one(target))
+    assert out.enabled[0] and out.error[0] == 0.0
+    if cfg.ki > 0.0 and cfg.kd == 0.0:
+        assert abs(out.correction_rad_s[0]) <= abs(held.correction_rad_s[0]) + 1e-9
