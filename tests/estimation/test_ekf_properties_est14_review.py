@@ -483,7 +483,7 @@ def test_projection_with_two_correlated_active_states_moves_the_free_one_by_the_
     """Two bounds violated at once, correlated (cond(P_aa) ~ 40): the estimate projection
     x - P D^T (D P D^T)^-1 (D x - d) (Simon & Chia 2002 eq. 13), not a clip."""
     P = np.array([[1.0, 0.95, 0.5], [0.95, 1.0, 0.4], [0.5, 0.4, 1.0]])
-    x = np.array([2.0, 1.5, 0.0])
+    x = np.array([2.0, 2.0, 0.0])                  # both multipliers > 0
     lo, up = np.array([-1.0, -1.0, -np.inf]), np.array([1.0, 1.0, np.inf])
     xc, active = project_to_bounds(x, P, lo, up)
     idx = [0, 1]
@@ -532,3 +532,41 @@ def test_agrimaro_default_tuning_is_eqs_6_9_6_13_6_14_entry_by_entry_in_model_or
                         + (5e-5, 5e-5) + (0.001, 0.0005))
     assert s.q_diag == (0.5, 0.5, 0.08, 0.08, 0.08, 0.15, 0.12, 0.12) + (0.002,) * 4
     assert s.q_per == "step"
+
+
+@pytest.mark.parametrize("slip", [0.9, 0.93, 0.945, -0.9])
+def test_slip_state_wheel_rows_keep_their_slip_column_just_above_the_floor(slip):
+    """Eq. 4.22 ``omega = v_w / ((1 - s) R_w)``: ``d omega / d s = omega / (1 - s)`` for every
+    ``1 - s`` above the 0.05 floor (s < 0.95), including s in (0.9, 0.95)."""
+    model = SlipStateModel()
+    x = np.zeros(model.n_states)
+    x[3], x[4], x[5] = 1.2, 0.1, 0.3                 # v_bx, v_by, yaw_rate
+    x[8:11] = slip
+    x[11:14] = 0.2, -0.1, 0.4                        # steering angles
+    hx, H = model.observation(x)
+    for i in range(3):
+        assert H[i, 8 + i] == pytest.approx(hx[i] / (1.0 - slip), rel=1e-12)
+    np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x, eps=1e-8), rtol=1e-5,
+                               atol=1e-6)
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), p_nan=st.floats(0.0, 0.5), p_out=st.floats(0.0, 0.1))
+def test_compiled_and_reference_loops_agree_on_any_gaps_and_outliers(seed, p_nan, p_out):
+    """The two engines of run_filter on random gaps (NaN rows) and outliers with a gate:
+    the same states, NIS, gate decisions and counts (to round-off)."""
+    model = SkidSteerModel(SkidSteerSettings(chi0=1.4))
+    t, s = _skid_samples(seed)
+    rng = np.random.default_rng(seed)
+    out = {}
+    for name, smp in s.items():
+        v = smp.values.copy()
+        v[rng.uniform(size=v.shape) < p_nan] = np.nan
+        v[rng.uniform(size=v.shape) < p_out] += 5.0
+        out[name] = SensorSamples(smp.t_s, v)
+    a = run_filter(model, t, out, gate=Gate(0.999), engine="numpy")
+    b = run_filter(model, t, out, gate=Gate(0.999), engine="numba")
+    np.testing.assert_allclose(b.x, a.x, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.nis, a.nis, rtol=1e-8, atol=1e-12)
+    np.testing.assert_array_equal(b.accepted, a.accepted)
+    assert a.counts == b.counts
