@@ -571,19 +571,24 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     covariance (estimate projection).
 
     The constrained estimate minimises ``(x_c - x)^T P^-1 (x_c - x)`` subject to the
-    constraints that ``x`` violates, each taken as an equality at its bound: with ``D`` the
-    rows of the identity of the active states and ``d`` their bounds,
+    bounds, with the active bounds (those the minimum lies on) taken as equalities: with
+    ``D`` the rows of the identity of the active states and ``d`` their bounds,
     ``x_c = x - P D^T (D P D^T)^-1 (D x - d)`` (Simon & Chia, "Kalman filtering with state
     equality constraints", IEEE Trans. Aerosp. Electron. Syst. 38(1), 2002, eq. 13 with
     ``W = P^-1``; Simon, "Kalman filtering with state constraints: a survey of linear and
     nonlinear algorithms", IET Control Theory Appl. 4(8), 2010, sec. 2.4). Unlike clipping,
     the projection also moves every state correlated with a violated one: a speed pushed
-    back into its bound takes the slips that moved with it along. A state that the
-    projection pushes past its own bound joins the active set and the projection is redone
-    (active set method; at most ``n`` rounds). A violated state with no variance is set to
-    its bound and moves nothing else. The covariance is returned unchanged: the bounds say
-    where the state cannot be, not where it is (Simon 2010, sec. 2.4, the estimate
-    projection with the unconstrained covariance), so no variance collapses onto a bound.
+    back into its bound takes the slips that moved with it along. The active set starts with
+    the states ``x`` violates; a state that the projection pushes past its own bound joins
+    it, and a state held at a bound that its Lagrange multiplier ``(D P D^T)^-1 (D x - d)``
+    says it would leave (negative at an upper bound, positive at a lower one: a correlated
+    state dragged from one bound past the other) is released from it; the projection is
+    redone until neither happens (primal active set method, Nocedal & Wright, "Numerical
+    Optimization", 2nd ed., sec. 16.5; at most ``4 n + 4`` rounds, then a clip). A violated
+    state with no variance is set to its bound and moves nothing else. The covariance is
+    returned unchanged: the bounds say where the state cannot be, not where it is (Simon
+    2010, sec. 2.4, the estimate projection with the unconstrained covariance), so no
+    variance collapses onto a bound.
 
     With ``movable`` only those states move: the same distance is minimised with the others
     held, i.e. the projection runs in the metric of the movable states' covariance
@@ -651,22 +656,33 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     active = np.zeros(n, dtype=bool)
     xc = x.copy()
     bound = np.zeros(n)
-    for _ in range(n):
-        below, above = xc < lower, xc > upper
-        new = (below | above) & ~active
-        if not new.any():
-            break
-        bound[below & new] = lower[below & new]
-        bound[above & new] = upper[above & new]
-        active |= new
+    lam = np.zeros(0)
+    for _ in range(4 * n + 4):
+        new = ((xc < lower) | (xc > upper)) & ~active
+        if new.any():
+            bound[new & (xc < lower)] = lower[new & (xc < lower)]
+            bound[new & (xc > upper)] = upper[new & (xc > upper)]
+            active |= new
+        else:
+            # multiplier of each active bound (x_c = x - P_:a lam): >= 0 at an upper bound,
+            # <= 0 at a lower one; one of the wrong sign holds the state against a bound it
+            # would leave, so it is released (the one of largest |lam|) and the rest redone
+            idx = np.flatnonzero(active)
+            wrong = np.where(bound[idx] == upper[idx], -lam, lam)
+            wrong[lower[idx] == upper[idx]] = -np.inf     # an equality is never released
+            if not idx.size or wrong.max() <= 0.0:
+                break
+            active[idx[int(np.argmax(wrong))]] = False
         idx = np.flatnonzero(active)
         Paa = P[np.ix_(idx, idx)]
-        var = Paa.diagonal()
-        if (var <= 0).any() or np.linalg.cond(Paa) > 1e12:
+        if (Paa.diagonal() <= 0).any() or np.linalg.cond(Paa) > 1e12:
             xc = np.clip(xc, lower, upper)    # no metric to project in: clip
             break
-        xc = x - P[:, idx] @ np.linalg.solve(Paa, x[idx] - bound[idx])
+        lam = np.linalg.solve(Paa, x[idx] - bound[idx])
+        xc = x - P[:, idx] @ lam
         xc[idx] = bound[idx]                  # exact, free of round-off
+    else:
+        xc = np.clip(xc, lower, upper)        # (no active set settled: clip)
     return xc, active
 
 

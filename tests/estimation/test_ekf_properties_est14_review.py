@@ -570,3 +570,40 @@ def test_compiled_and_reference_loops_agree_on_any_gaps_and_outliers(seed, p_nan
     np.testing.assert_allclose(b.nis, a.nis, rtol=1e-8, atol=1e-12)
     np.testing.assert_array_equal(b.accepted, a.accepted)
     assert a.counts == b.counts
+
+
+def test_projection_releases_a_bound_that_a_correlated_state_is_dragged_away_from():
+    """x = (5, 3) above both upper bounds 1, P = [[1, 2], [2, 5]]: holding state 0 at its
+    upper bound drags state 1 to 3 - 2 (5 - 1) = -5, past its lower bound -1, so the point
+    of the box nearest in the P^-1 metric is (1, -1) (distance 32), not (1, 1) (distance
+    52), which holding both violated states at their upper bounds gave."""
+    P = np.array([[1.0, 2.0], [2.0, 5.0]])
+    x = np.array([5.0, 3.0])
+    xc, active = project_to_bounds(x, P, -np.ones(2), np.ones(2))
+    np.testing.assert_allclose(xc, [1.0, -1.0], atol=1e-12)
+    assert active.tolist() == [True, True]
+    W = np.linalg.inv(P)
+    assert (xc - x) @ W @ (xc - x) == pytest.approx(32.0)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 4))
+def test_projection_is_the_nearest_point_of_the_box_in_the_covariance_metric(seed, n):
+    """Against every candidate active set (each state free, at its lower or at its upper
+    bound): no feasible point of the box is nearer to x in the P^-1 metric."""
+    import itertools
+    rng = np.random.default_rng(seed)
+    P = _random_spd(rng, n) + 1e-2 * np.eye(n)
+    x = rng.normal(scale=3.0, size=n)
+    lo, up = -rng.uniform(0.1, 2.0, n), rng.uniform(0.1, 2.0, n)
+    xc, _ = project_to_bounds(x, P, lo, up)
+    W = np.linalg.inv(P)
+    best = np.inf
+    for combo in itertools.product((0, 1, 2), repeat=n):
+        idx = [i for i in range(n) if combo[i]]
+        b = np.array([lo[i] if combo[i] == 1 else up[i] for i in idx])
+        z = x - P[:, idx] @ np.linalg.solve(P[np.ix_(idx, idx)], x[idx] - b) if idx else x
+        if (z >= lo - 1e-9).all() and (z <= up + 1e-9).all():
+            best = min(best, (z - x) @ W @ (z - x))
+    assert (xc >= lo - 1e-9).all() and (xc <= up + 1e-9).all()
+    assert (xc - x) @ W @ (xc - x) <= best * (1 + 1e-7) + 1e-9
