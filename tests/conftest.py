@@ -143,11 +143,15 @@ class _LoggedRun:
     def log_metrics(self, metrics):
         self.logged.update(metrics)
 
+    def describe(self):
+        return "run"
+
 
 @pytest.fixture
 def logged_metrics(monkeypatch):
     """Route a benchmark script's MLflow run to a dict: call with the script's globals
-    (``runpy.run_path(...)["main"].__globals__``); returns the dict its metrics land in."""
+    (``runpy.run_path(...)["main"].__globals__``, or a module's ``vars()``); returns the
+    dict its metrics land in."""
     def capture(script_globals: dict) -> dict:
         logged: dict = {}
         monkeypatch.setitem(script_globals, "tracked_run", lambda *a, **k: _LoggedRun(logged))

@@ -102,38 +102,20 @@ def test_a_run_too_short_for_a_request_is_never_sliced(script):
         assert len(rows) in (40, 41) and set(rows["vel_l"]) == {1.0}
 
 
-class _Tracked:
-    def __init__(self, logged):
-        self.logged = logged
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def log_metrics(self, metrics):
-        self.logged.update(metrics)
-
-    def describe(self):
-        return "run"
-
-
 def test_served_and_in_process_figures_in_ms_and_requests_per_second(script, monkeypatch,
-                                                                     capsys):
+                                                                     capsys, logged_metrics):
     # the served requests answered in 10, 20, ..., 80 ms (after a warm-up of 1 s), every
     # in-process decision 2 ms (500 req/s)
     import threading
 
     env = script["main"].__globals__
-    logged = {}
+    logged = logged_metrics(env)
     lock, answered = threading.Lock(), []
 
     def post(url, body):
         with lock:
             answered.append(url)
             return True, (0.010 * (len(answered) - 1) if len(answered) > 1 else 1.0)
-    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Tracked(logged))
     monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
     monkeypatch.setitem(env, "load_stream_model",
                         lambda path: SimpleNamespace(window=SimpleNamespace(window_s=2.0)))

@@ -98,31 +98,13 @@ def test_a_warm_up_longer_than_the_run_is_a_usage_error(script, monkeypatch, cap
     assert "--warmup" in capsys.readouterr().err
 
 
-class _Tracked:
-    def __init__(self, logged):
-        self.logged = logged
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        return False
-
-    def log_metrics(self, metrics):
-        self.logged.update(metrics)
-
-    def describe(self):
-        return "run"
-
-
 def test_latency_figures_are_percentiles_in_ms_of_the_paired_times(script, monkeypatch,
-                                                                   capsys):
+                                                                   capsys, logged_metrics):
     # decisions of 1, 2, ..., 101 ms; the pipeline inside each half of it, the same pipeline
     # right after 1 ms, the reference 0.1 ms
     env = script["main"].__globals__
-    logged = {}
+    logged = logged_metrics(env)
     decision = np.arange(1, 102) / 1e3
-    monkeypatch.setitem(env, "tracked_run", lambda *a, **k: _Tracked(logged))
     monkeypatch.setitem(env, "fit_stream_model", lambda *a, **k: _Model(_Pipeline()))
     run = SimpleNamespace(run_id="r", duration_s=60.0, streams={"imu": 0, "wheels": 0})
     monkeypatch.setitem(env, "load_dataset", lambda name: [run])
