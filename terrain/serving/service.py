@@ -282,19 +282,40 @@ class StreamService:
         v = chunk_values(values, t, channels, stream)
         if not len(t):
             return []
-        # a chunk longer than half the buffer goes in pieces, deciding after each: in one
+        # a chunk longer than half the buffer, or than the room its buffer has beside the
+        # samples a coming decision may read, goes in pieces, deciding after each: in one
         # piece the buffer would keep only its newest samples and the rest be lost
-        piece = max(1, self.config.buffer_samples // 2)
+        piece = self._piece(stream, len(t))
         if len(t) <= piece:
             self._intake.ingest(stream, t, v)
             return self._emit()
-        out = []
-        for i in range(0, len(t), piece):
+        out, i = [], 0
+        while i < len(t):
             # each piece with the stream's offset now, as a next push: a piece before may
             # have moved its clock (a restart of it alone, a run held ahead put back)
             self._intake.ingest(stream, raw[i:i + piece] + clock.offset_s, v[i:i + piece])
             out.extend(self._emit())
+            i += piece
+            piece = self._piece(stream, len(t) - i)
         return out
+
+    def _piece(self, stream: str, n: int) -> int:
+        """Samples of a chunk of ``n`` to take before deciding: at most half the buffer,
+        and no more than the buffer holds beside the samples a coming decision may still
+        read (down to one), so that a backlog pushed at once loses none of them where the
+        same samples pushed one by one lose none (a 0.08 s wheel step, a 24-sample buffer:
+        4 samples were counted ``buffer_overflow``). Where the buffer is full of such
+        samples (another stream lags), half the buffer: one by one would lose them too."""
+        half = max(1, self.config.buffer_samples // 2)
+        buf = self._intake.buffers[stream]
+        if len(buf) + min(n, half) <= buf.capacity:   # nothing pushed out: the usual push
+            return half
+        since = self._clock.needed_since()
+        if since == -np.inf:
+            return half
+        needed = len(buf) - int(np.searchsorted(buf.times(), since, side="left"))
+        room = buf.capacity - needed
+        return half if room < 1 else min(half, room)
 
     def _emit(self) -> list[Decision]:
         buffers, clock = self._intake.buffers, self._clock

@@ -313,3 +313,20 @@ def test_join_flags_is_the_sorted_union_of_its_columns(cols):
     assert join_flags(*reversed(cols)) == got
     assert join_flags(got, got) == got
 
+
+# ---------------------------------------------------------------- regressions found above
+
+def test_a_backlog_pushed_at_once_loses_no_sample_that_one_by_one_keeps():
+    """Found by the chunking property: a 12.5 Hz wheel stream (0.08 s steps) with a
+    24-sample buffer (the model's 1 s window needs 12) pushed as one 79-sample chunk was
+    taken in half-buffer pieces of 12, each pushing out 12 samples while the next decision
+    (up to a hop after the newest) still needed ~21: 4 samples were counted
+    ``buffer_overflow`` that the same samples pushed one by one never lost. Pieces are
+    now cut to the room the buffer has beside the samples still needed."""
+    t = 100.0 + 0.08 * np.arange(1, 80)
+    v = np.zeros((len(t), 2))
+    one, chunked = _service(24), _service(24)
+    a = _push(one, t, v, [1] * len(t))
+    b = _push(chunked, t, v, [len(t)])
+    assert chunked.refused_samples == one.refused_samples == {}
+    assert _key(b) == _key(a) and len(a) == 11
