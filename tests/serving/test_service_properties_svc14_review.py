@@ -330,3 +330,12 @@ def test_a_backlog_pushed_at_once_loses_no_sample_that_one_by_one_keeps():
     b = _push(chunked, t, v, [len(t)])
     assert chunked.refused_samples == one.refused_samples == {}
     assert _key(b) == _key(a) and len(a) == 11
+
+
+def test_a_window_ruling_a_class_out_is_floored_at_proba_floor_not_more():
+    """A window giving a class probability 0 weighs it by PROBA_FLOOR = 1e-4 (so one
+    window never vetoes a class for good), no more: p = [1, 1e-4] / (1 + 1e-4) from a
+    uniform prior with no switching and evidence power 1. (Mutant: a floor of 1e-2
+    survived every test of the area.)"""
+    p = forward_step(np.array([0.5, 0.5]), np.array([1.0, 0.0]), 0.0, 1.0)
+    np.testing.assert_allclose(p, np.array([1.0, 1e-4]) / (1.0 + 1e-4), rtol=1e-12)
