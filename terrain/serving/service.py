@@ -3,8 +3,9 @@
 Samples of each stream arrive one by one or in chunks, each stream at its own rate and on
 its own clock (an optional per-stream offset maps it onto the service clock). Each stream
 keeps a bounded :class:`~terrain.serving.buffers.RingBuffer`, so memory is fixed for an
-unbounded stream. A chunk longer than half the buffer is taken in pieces, deciding after
-each; a sample pushed out of its buffer before any decision could read it (a backlog of one
+unbounded stream. A chunk longer than half the buffer, or than the room its buffer has
+beside the samples a coming decision may read, is taken in pieces, deciding after each; a
+sample pushed out of its buffer before any decision could read it (a backlog of one
 stream while another lags) is counted as ``buffer_overflow`` in
 :attr:`StreamService.refused_samples` and flags the windows that would have read it (the
 first window, when it was lost before any decision was placed), as is a sample dropped from
@@ -307,8 +308,10 @@ class StreamService:
         4 samples were counted ``buffer_overflow``). Where the buffer is full of such
         samples (another stream lags), half the buffer: one by one would lose them too."""
         half = max(1, self.config.buffer_samples // 2)
+        if n <= 1:      # one sample is one piece whatever the room (a robot's usual push)
+            return half
         buf = self._intake.buffers[stream]
-        if len(buf) + min(n, half) <= buf.capacity:   # nothing pushed out: the usual push
+        if len(buf) + min(n, half) <= buf.capacity:   # nothing pushed out
             return half
         since = self._clock.needed_since()
         if since == -np.inf:
