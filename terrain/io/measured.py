@@ -216,13 +216,7 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             out[name] = numbers[:, header.index(col)]
             continue
         text = pd.Series(cells[:, header.index(col)]).str.strip()
-        # pandas' parser reads a number led by "+" one unit in the last place off (1 in 8 of
-        # them: "+1.4718714553235301"); without its sign it reads float()'s value
-        values = pd.to_numeric(text.str.replace(r"^\+(?=[0-9.])", "", regex=True),
-                               errors="coerce").to_numpy(dtype=float)
-        # the words NumPy's fast path reads as non-finite too (C's printf writes -nan)
-        is_nan_word = text.str.lower().isin(NON_FINITE_WORDS)
-        bad = np.isnan(values) & ~is_nan_word.to_numpy()
+        values, bad = parse_cells(text)
         if bad.any():
             if kind not in COLUMN_MAPS and name != TIME and bad.all():
                 out[name] = text.to_numpy()  # a string channel of an extra stream
@@ -254,6 +248,33 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     for msg in report.warnings:
         warnings.warn(msg, DataWarning, stacklevel=2)
     return frame, report
+
+
+def parse_cells(text: pd.Series) -> tuple[np.ndarray, np.ndarray]:
+    """The readers' number rule for the stripped cells of one column (strict path).
+
+    Parameters
+    ----------
+    text : pandas.Series
+        ``(n,)`` cell texts, stripped.
+
+    Returns
+    -------
+    values : numpy.ndarray
+        ``(n,)`` float64, NaN where a cell is not a number or is a non-finite word
+        (:data:`NON_FINITE_WORDS`, an empty cell included).
+    is_text : numpy.ndarray
+        ``(n,)`` bool: neither a number nor a non-finite word (a column of such cells only
+        is an extra stream's text channel; one among numbers a
+        :class:`~terrain.errors.NonNumericError`).
+    """
+    # pandas' parser reads a number led by "+" one unit in the last place off (1 in 8 of
+    # them: "+1.4718714553235301"); without its sign it reads float()'s value
+    values = pd.to_numeric(text.str.replace(r"^\+(?=[0-9.])", "", regex=True),
+                           errors="coerce").to_numpy(dtype=float)
+    # the words NumPy's fast path reads as non-finite too (C's printf writes -nan)
+    is_nan_word = text.str.lower().isin(NON_FINITE_WORDS).to_numpy()
+    return values, np.isnan(values) & ~is_nan_word
 
 
 def _column_label(header: list[str], k: int) -> str:

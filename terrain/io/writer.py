@@ -25,7 +25,7 @@ import pandas as pd
 
 from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.jsonfile import json_ready
-from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, NON_FINITE_WORDS, STREAM_NAMES
+from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES, parse_cells
 from terrain.run import TIME, Run
 
 #: Number format of the written CSV files (see the module's note on timestamps).
@@ -181,16 +181,15 @@ def free_index(folder: str | Path) -> int:
 
 def _text_read_back(cell) -> bool:
     """Whether a cell of a text channel reads back as written: the readers keep a channel
-    as text only when no cell is a number, a non-finite word or empty, strip every cell and
-    take one line per row."""
+    as text only when every cell is text by their rule (:func:`parse_cells`: no number, no
+    non-finite word, none empty), strip every cell and take one line per row; a cell
+    Python's ``float`` reads as a number (``1_0``, other scripts' digits) is refused too."""
     if not isinstance(cell, str) or cell != cell.strip() or "\n" in cell or "\r" in cell:
-        return False
-    if cell.lower() in NON_FINITE_WORDS:
         return False
     try:
         float(cell)
     except ValueError:
-        return bool(np.isnan(pd.to_numeric(pd.Series([cell]), errors="coerce")[0]))
+        return bool(parse_cells(pd.Series([cell]))[1][0])
     return False
 
 
