@@ -285,15 +285,22 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
         fourth twist entry or a z coordinate was dropped without a word).
     """
     p = np.asarray(positions_m, dtype=float)
-    tw = np.asarray(twist, dtype=float)
     if p.ndim != 2 or p.shape[1] != 2:
         raise ShapeError(f"wheel_contact_velocity: positions_m must have shape (n_wheels, 2), "
                          f"one (x, y) per wheel, got {p.shape}")
-    if tw.ndim == 0 or tw.shape[-1] != 3:
-        raise ShapeError(f"wheel_contact_velocity: twist must have shape (..., 3), "
-                         f"[yaw_rate, v_x, v_y], got {tw.shape}")
+    tw = _vectors3("wheel_contact_velocity", "twist [yaw_rate, v_x, v_y]", twist)
     vx, vy = point_velocity(tw[..., 1:2], tw[..., 2:3], tw[..., 0:1], p[:, 0], p[:, 1])
     return np.stack([vx, vy], axis=-1)
+
+
+def _vectors3(owner: str, name: str, value) -> np.ndarray:
+    """``value`` as floats of shape (..., 3) (a vector per sample); ShapeError naming
+    ``owner`` and ``name`` otherwise (np.cross took two entries as ``(x, y, 0)``, the
+    product and the indexing dropped a fourth without a word)."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 0 or a.shape[-1] != 3:
+        raise ShapeError(f"{owner}: {name} must have shape (..., 3), got {a.shape}")
+    return a
 
 
 def _check_swerve(owner: str, params) -> None:
@@ -472,11 +479,9 @@ def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
         A velocity or angular velocity not of shape (..., 3) or a lever arm not of shape
         (3,) (np.cross took two entries as ``(x, y, 0)``).
     """
-    v, w, arm = (np.asarray(a, dtype=float) for a in (v_robot_m_s, omega_rad_s, lever_arm_m))
-    for name, a in (("velocity", v), ("omega_rad_s", w)):
-        if a.ndim == 0 or a.shape[-1] != 3:
-            raise ShapeError(f"robot_to_camera_velocity: {name} must have shape (..., 3), "
-                             f"got {a.shape}")
+    v = _vectors3("robot_to_camera_velocity", "velocity", v_robot_m_s)
+    w = _vectors3("robot_to_camera_velocity", "omega_rad_s", omega_rad_s)
+    arm = np.asarray(lever_arm_m, dtype=float)
     if arm.shape != (3,):
         raise ShapeError(f"robot_to_camera_velocity: lever_arm_m must have shape (3,), got "
                          f"{arm.shape}")
@@ -502,8 +507,4 @@ def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
     ShapeError
         ``vectors`` not of shape (..., 3) (NumPy's bare matmul ValueError before).
     """
-    vec = np.asarray(vectors, dtype=float)
-    if vec.ndim == 0 or vec.shape[-1] != 3:
-        raise ShapeError(f"t265_tracking_to_robot: vectors must have shape (..., 3), got "
-                         f"{vec.shape}")
-    return vec @ R_ROBOT_FROM_T265_TRACKING.T
+    return _vectors3("t265_tracking_to_robot", "vectors", vectors) @ R_ROBOT_FROM_T265_TRACKING.T
