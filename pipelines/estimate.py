@@ -189,8 +189,8 @@ def main(args: argparse.Namespace) -> int:
             if note == LEARNED_FALLBACK_NOTE and wants_model and learned is None:
                 continue        # said once above, with where the model was looked for
             print(note)
-        lags["not estimated" if est.lag is None else "applied" if est.lag.applied
-             else "not applied"] += 1
+        lags["not estimated" if est.lag is None or not est.lag.estimated
+             else "applied" if est.lag.applied else "not applied"] += 1
         out = outs[run.run_id]
         out.parent.mkdir(parents=True, exist_ok=True)
         frame = est.to_frame()
@@ -199,7 +199,7 @@ def main(args: argparse.Namespace) -> int:
         frame.to_csv(out, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
     estimated = len(runs) - len(refused)
-    if lags["not applied"]:
+    if args.lag == "xcorr" and (lags["not applied"] or lags["not estimated"]):
         # a cross-correlation lag is applied only for a clear peak (terrain.slip.alignment)
         print(f"note: encoder lag applied on {lags['applied']} of {estimated} runs, not "
               f"applied on {lags['not applied']} (no clear cross-correlation peak), not "

@@ -62,6 +62,29 @@ class LagEstimate:
     reason: str = ""
     at_range_end: bool = False
 
+    @property
+    def estimated(self) -> bool:
+        """Whether a lag was estimated at all (False for :func:`lag_not_estimated`)."""
+        return bool(np.isfinite(self.lag_s))
+
+
+def lag_not_estimated(reason: str) -> LagEstimate:
+    """The :class:`LagEstimate` of a lag that could not be estimated: ``lag_s`` and
+    ``correlation`` NaN, no samples, not applied, ``reason`` saying why.
+
+    Parameters
+    ----------
+    reason : str
+        Why, in words (a missing reference stream, the :class:`EstimationError` of
+        :func:`estimate_lag`).
+
+    Returns
+    -------
+    LagEstimate
+        ``estimated`` False.
+    """
+    return LagEstimate(float("nan"), float("nan"), 0, applied=False, reason=reason)
+
 
 @dataclass(frozen=True)
 class LagGate:

@@ -41,7 +41,7 @@ from terrain.estimation.runner import check_rate_hz
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run, times_out_of_order
-from terrain.slip.alignment import LagEstimate, gated_lag
+from terrain.slip.alignment import LagEstimate, gated_lag, lag_not_estimated
 from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
                                wheel_longitudinal_velocity)
 from terrain.terramechanics.slip import in_dead_band
@@ -75,8 +75,9 @@ class RunEstimate:
     slip_names : tuple of str
         ``slip_1``... (simulator numbering).
     lag : LagEstimate or None
-        Estimated encoder lag (``lag="xcorr"``); applied only where ``lag.applied``
-        (:func:`~terrain.slip.alignment.gated_lag`).
+        Estimated encoder lag (``lag="xcorr"``; None for another lag mode); applied only
+        where ``lag.applied`` (:func:`~terrain.slip.alignment.gated_lag`); ``lag.estimated``
+        False, with ``lag.reason``, when none could be estimated.
     meta : dict
         Tuning, lag mode and offsets, dead band.
     slip_std : ndarray, shape (N, k), optional
@@ -145,8 +146,10 @@ class RunEstimate:
                 else "")) if np.isfinite(self.slip[:, j]).any()
             else f"{n} none (no finite estimate)"
             for j, n in enumerate(self.slip_names))
-        lag = ("not estimated" if self.lag is None else f"{self.lag.lag_s:.3f} s"
-               if self.lag.applied else f"not applied (no clear peak: {self.lag.lag_s:+.3f} s)")
+        lag = ("not estimated" if self.lag is None
+               else f"not estimated ({self.lag.reason})" if not self.lag.estimated
+               else f"{self.lag.lag_s:.3f} s" if self.lag.applied
+               else f"not applied (no clear peak: {self.lag.lag_s:+.3f} s)")
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
         # a filter slower than a sensor keeps the latest of its samples in each step
         superseded = {k: f"{v['superseded']} of {v['samples']}"
@@ -250,7 +253,7 @@ def agrimaro_wheel_speeds(run: Run, vehicle: AgriMaRoParams = AGRIMARO
 
 
 def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
-                         vehicle: AgriMaRoParams = AGRIMARO) -> LagEstimate | None:
+                         vehicle: AgriMaRoParams = AGRIMARO) -> LagEstimate:
     """Encoder lag of an AgriMaRo run: camera speed ``|v_c|`` against the mean rim speed
     (:func:`~terrain.slip.alignment.gated_lag`: applied only for a clear peak).
 
@@ -267,22 +270,23 @@ def agrimaro_encoder_lag(run: Run, t_s: np.ndarray, omega_rad_s: np.ndarray,
 
     Returns
     -------
-    LagEstimate or None
-        None without a camera stream or when no lag can be estimated; ``applied`` False (and
-        ``reason``) when the peak is not clear.
+    LagEstimate
+        ``applied`` False (and ``reason``) when the peak is not clear;
+        :func:`~terrain.slip.alignment.lag_not_estimated` (``estimated`` False, ``reason``)
+        without a camera stream or when no lag can be estimated.
     """
     cam = run.streams.get("cam")
     if cam is None:
-        return None
+        return lag_not_estimated("no cam stream, the reference speed")
     ref = np.hypot(cam["v_cx"].to_numpy(float), cam["v_cy"].to_numpy(float))
     rim = np.nanmean(np.abs(omega_rad_s), axis=1) * vehicle.wheel_radius_m
     try:
         return gated_lag(cam[TIME].to_numpy(float), ref, t_s, rim)
-    except EstimationError:
-        return None
+    except EstimationError as exc:
+        return lag_not_estimated(str(exc))
 
 
-def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate | None:
+def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate:
     """Wheel-stream lag of a skid-steer run: gyro yaw rate against the wheel yaw rate
     ``(vel_r - vel_l) / B`` (:func:`~terrain.slip.alignment.gated_lag`, up to 1 s, 50 Hz:
     applied only for a clear peak).
@@ -296,20 +300,22 @@ def skid_steer_encoder_lag(run: Run, track_m: float) -> LagEstimate | None:
 
     Returns
     -------
-    LagEstimate or None
-        None without both streams or when no lag can be estimated; ``applied`` False (and
-        ``reason``) when the peak is not clear.
+    LagEstimate
+        ``applied`` False (and ``reason``) when the peak is not clear;
+        :func:`~terrain.slip.alignment.lag_not_estimated` (``estimated`` False, ``reason``)
+        without both streams or when no lag can be estimated.
     """
     w, imu = run.streams.get("wheels"), run.streams.get("imu")
     if w is None or imu is None:
-        return None
+        missing = " and ".join(n for n, s in (("wheels", w), ("imu", imu)) if s is None)
+        return lag_not_estimated(f"no {missing} stream (gyro yaw rate against wheel yaw rate)")
     vel = w[["vel_l", "vel_r"]].to_numpy(float)
     try:
         return gated_lag(imu[TIME].to_numpy(float), imu["wz"].to_numpy(float),
                          w[TIME].to_numpy(float), (vel[:, 1] - vel[:, 0]) / track_m,
                          max_lag_s=1.0, rate_hz=50.0)
-    except EstimationError:
-        return None
+    except EstimationError as exc:
+        return lag_not_estimated(str(exc))
 
 
 def lag_notes(run: Run, lag_est: LagEstimate | None) -> tuple[str, ...]:
@@ -325,11 +331,14 @@ def lag_notes(run: Run, lag_est: LagEstimate | None) -> tuple[str, ...]:
     Returns
     -------
     tuple of str
-        One ``note: ...`` when ``lag_est.applied`` is False (with its estimate and why);
-        empty otherwise.
+        One ``note: ...`` when ``lag_est.applied`` is False (with its estimate, or that none
+        could be made, and why); empty otherwise.
     """
     if lag_est is None or lag_est.applied:
         return ()
+    if not lag_est.estimated:
+        return (f"note: encoder lag of run {run.run_id} not estimated (no lag applied): "
+                f"{lag_est.reason}",)
     return (f"note: encoder lag of run {run.run_id} not applied (no lag): the "
             f"cross-correlation peak at {lag_est.lag_s:+.3f} s is not clear "
             f"({lag_est.reason})",)

@@ -175,9 +175,12 @@ def test_estimate_names_each_runs_file_counts_its_lags_and_keeps_the_epoch_time(
     runs = [SimpleNamespace(run_id=f"r/{t}/{i}", vehicle=v)
             for t, i, v in (("GRASS", "00", "agrimaro"), ("ASPHALT", "00", "husky"),
                             ("ASPHALT", "01", "husky"), ("SNOW", "00", "husky"))]
-    lags = {"r/GRASS/00": SimpleNamespace(applied=False),
-            "r/ASPHALT/00": SimpleNamespace(applied=True),
-            "r/ASPHALT/01": SimpleNamespace(applied=True), "r/SNOW/00": None}
+    from terrain.slip.alignment import LagEstimate, lag_not_estimated
+
+    lags = {"r/GRASS/00": LagEstimate(0.2, 0.1, 500, applied=False, reason="low"),
+            "r/ASPHALT/00": LagEstimate(0.1, 0.8, 500),
+            "r/ASPHALT/01": LagEstimate(0.1, 0.8, 500),
+            "r/SNOW/00": lag_not_estimated("fewer than 20 finite samples")}
 
     def est(run, *args, **kwargs):
         return SimpleNamespace(notes=[], lag=lags[run.run_id], summary=lambda: run.run_id,

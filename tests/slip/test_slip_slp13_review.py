@@ -193,3 +193,26 @@ def test_an_infinite_speed_gives_no_slip_as_a_nan_one_does(floor):
     w = wheel_slip(np.array([[np.inf, 1.0]]), np.array([1.0]), np.array([0.0]),
                    np.array([0.0]), np.array([[0.0, 0.3], [0.0, -0.3]]))
     assert np.isnan(w[0, 0]) and w[0, 1] == 0.0
+
+
+def test_a_lag_that_could_not_be_estimated_says_why():
+    """``--lag xcorr`` on a run without a reference stream, or one whose estimate fails,
+    used to print "encoder lag not estimated" and nothing else; the reason now reaches the
+    summary and a note."""
+    from types import SimpleNamespace
+
+    from terrain.slip.estimate import lag_notes, skid_steer_encoder_lag
+
+    t = np.arange(10) / 6.5
+    wheels = pd.DataFrame({"t_s": t, "vel_l": np.ones(10), "vel_r": np.ones(10)})
+    run = SimpleNamespace(run_id="r/SNOW/00", streams={"wheels": wheels})
+    est = skid_steer_encoder_lag(run, 0.555)
+    assert not est.estimated and not est.applied
+    assert est.reason == "no imu stream (gyro yaw rate against wheel yaw rate)"
+    assert lag_notes(run, est) == (
+        "note: encoder lag of run r/SNOW/00 not estimated (no lag applied): no imu stream "
+        "(gyro yaw rate against wheel yaw rate)",)
+    imu = pd.DataFrame({"t_s": t, "wz": np.zeros(10)})
+    run = SimpleNamespace(run_id="r/SNOW/00", streams={"wheels": wheels, "imu": imu})
+    est = skid_steer_encoder_lag(run, 0.555)
+    assert not est.estimated and est.reason == "fewer than 20 finite samples"
