@@ -199,7 +199,7 @@ def main(args: argparse.Namespace) -> int:
         frame.to_csv(out, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
     estimated = len(runs) - len(refused)
-    if args.lag == "xcorr" and (lags["not applied"] or lags["not estimated"]):
+    if lags["not applied"] or (args.lag == "xcorr" and lags["not estimated"] and estimated > 1):
         # a cross-correlation lag is applied only for a clear peak (terrain.slip.alignment)
         print(f"note: encoder lag applied on {lags['applied']} of {estimated} runs, not "
               f"applied on {lags['not applied']} (no clear cross-correlation peak), not "

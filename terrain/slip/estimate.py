@@ -146,8 +146,7 @@ class RunEstimate:
                 else "")) if np.isfinite(self.slip[:, j]).any()
             else f"{n} none (no finite estimate)"
             for j, n in enumerate(self.slip_names))
-        lag = ("not estimated" if self.lag is None
-               else f"not estimated ({self.lag.reason})" if not self.lag.estimated
+        lag = ("not estimated" if self.lag is None or not self.lag.estimated
                else f"{self.lag.lag_s:.3f} s" if self.lag.applied
                else f"not applied (no clear peak: {self.lag.lag_s:+.3f} s)")
         skipped = {k: v["non_finite"] for k, v in ekf.counts.items() if v["non_finite"]}
