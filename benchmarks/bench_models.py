@@ -33,7 +33,7 @@ import time
 import numpy as np
 from sklearn.pipeline import Pipeline
 
-from pipelines.arguments import integer_up_to, positive_integer
+from pipelines.arguments import DistinctValues, integer_up_to, positive_integer
 from terrain.errors import ConfigError
 from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_splits
 from terrain.models.experiment import ExperimentConfig, load_windows
@@ -76,7 +76,8 @@ def reference_ratios(figures: dict[str, float], kinds: list[str]) -> dict[str, f
 def main() -> int:
     """Time every model on one BorealTC fold; print and log the figures."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", choices=MODELS, default=list(MODELS))
+    parser.add_argument("--models", nargs="+", action=DistinctValues,
+                        choices=MODELS, default=list(MODELS))
     parser.add_argument("--threads", type=positive_integer, default=2,
                         help="torch threads when training")
     parser.add_argument("--repeats", type=positive_integer, default=50, help="timed single windows")

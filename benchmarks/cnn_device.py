@@ -25,7 +25,8 @@ import time
 
 import pandas as pd
 
-from pipelines.arguments import DistinctSeeds, output_file, positive_integer, seed_value
+from pipelines.arguments import (DistinctSeeds, DistinctValues, output_file, positive_integer,
+                                 seed_value)
 from terrain.models.compare import Cell, CompareConfig, cell_windows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import CNN_MODELS, ModelConfig, make_model
@@ -99,9 +100,10 @@ def _device(text: str) -> str:
 def main() -> int:
     """Cross-validate every model on every device, print and log the table."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--models", nargs="+", choices=CNN_MODELS,
+    parser.add_argument("--models", nargs="+", action=DistinctValues, choices=CNN_MODELS,
                         default=["cnn-spectrogram", "cnn"])
-    parser.add_argument("--devices", nargs="+", type=_device, default=["cuda", "cpu"])
+    parser.add_argument("--devices", nargs="+", action=DistinctValues,
+                        type=_device, default=["cuda", "cpu"])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
     parser.add_argument("--threads", type=positive_integer, default=2,

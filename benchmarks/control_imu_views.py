@@ -29,7 +29,7 @@ import argparse
 
 import pandas as pd
 
-from pipelines.arguments import DistinctSeeds, seed_value, terrain_name
+from pipelines.arguments import DistinctSeeds, DistinctValues, seed_value, terrain_name
 from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import compare, run_grid
@@ -57,11 +57,11 @@ SLIDE_FACTOR = 2.0
 
 def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--kinds", nargs="+", default=[k for _, k in KINDS],
+    parser.add_argument("--kinds", nargs="+", action=DistinctValues, default=[k for _, k in KINDS],
                         choices=sorted({k for v in ESTIMATORS.values() for k in v}))
-    parser.add_argument("--terrains", nargs="+", type=terrain_name,
+    parser.add_argument("--terrains", nargs="+", action=DistinctValues, type=terrain_name,
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+", choices=SCENARIO_NAMES,
+    parser.add_argument("--scenarios", nargs="+", action=DistinctValues, choices=SCENARIO_NAMES,
                         default=["straight_accel", "orchard", "slope_turn"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])

@@ -24,7 +24,8 @@ import numpy as np
 import pandas as pd
 from joblib import Parallel, delayed
 
-from pipelines.arguments import DistinctSeeds, output_dir, positive_integer, seed_value
+from pipelines.arguments import (DistinctSeeds, DistinctValues, output_dir, positive_integer,
+                                 seed_value)
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
@@ -62,7 +63,8 @@ def main() -> int:
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 10])
+    parser.add_argument("--history", type=positive_integer, nargs="+", action=DistinctValues,
+                        default=[1, 10])
     parser.add_argument("--threads", type=positive_integer, default=1,
                         help="torch threads per CNN fit")
     parser.add_argument("--n-jobs", type=positive_integer, default=1,

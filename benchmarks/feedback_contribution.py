@@ -31,8 +31,8 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from pipelines.arguments import (DistinctSeeds, output_dir, positive_number, seed_value,
-                                 sim_duration_s)
+from pipelines.arguments import (DistinctSeeds, DistinctValues, output_dir, positive_number,
+                                 seed_value, sim_duration_s)
 from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed_loop
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
@@ -97,17 +97,18 @@ def decided_labels(pairs: list[str]) -> list[tuple[str, str]]:
 def main() -> int:
     """Run the grid, print the table, log it; returns 0."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--vehicles", nargs="+", choices=list(LOOP_SETTINGS),
+    parser.add_argument("--vehicles", nargs="+", action=DistinctValues, choices=list(LOOP_SETTINGS),
                         default=["agrimaro", "husky"])
-    parser.add_argument("--terrains", nargs="+",
+    parser.add_argument("--terrains", nargs="+", action=DistinctValues,
                         default=["TILES", "GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+", choices=SCENARIO_NAMES,
+    parser.add_argument("--scenarios", nargs="+", action=DistinctValues, choices=SCENARIO_NAMES,
                         default=["straight_accel", "orchard", "slope_turn"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])
     parser.add_argument("--duration-s", type=sim_duration_s, default=20.0)
     parser.add_argument("--strong-kp", type=positive_number, default=20.0)
-    parser.add_argument("--decided", nargs="+", default=[], metavar="PLANT=LABEL")
+    parser.add_argument("--decided", nargs="+", action=DistinctValues,
+                        default=[], metavar="PLANT=LABEL")
     parser.add_argument("--out", type=output_dir, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()

@@ -27,8 +27,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from pipelines.arguments import (DistinctSeeds, integer_in, output_file, positive_integer,
-                                 seed_value)
+from pipelines.arguments import (DistinctSeeds, DistinctValues, integer_in, output_file,
+                                 positive_integer, seed_value)
 from terrain.io.shipped import DATASET_SPECS
 from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows, soft_vote
 from terrain.models.cv import cross_validate
@@ -98,10 +98,11 @@ def main() -> int:
     """Cross-validate at every number of folds, print and log the learning curve."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--dataset", choices=list(DATASET_SPECS), default="borealtc")
-    parser.add_argument("--splits", type=integer_in(2, 1000), nargs="+", default=[2, 3, 5, 10])
+    parser.add_argument("--splits", type=integer_in(2, 1000), nargs="+", action=DistinctValues,
+                        default=[2, 3, 5, 10])
     parser.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--models", nargs="+", choices=MODELS,
+    parser.add_argument("--models", nargs="+", action=DistinctValues, choices=MODELS,
                         default=["svm", "cnn", "cnn-spectrogram"])
     parser.add_argument("--max-epochs", type=positive_integer, default=30)
     parser.add_argument("--threads", type=positive_integer, default=1, help="torch threads per CNN")

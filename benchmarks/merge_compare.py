@@ -23,7 +23,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from pipelines.arguments import output_dir, positive_integer
+from pipelines.arguments import DistinctValues, output_dir, positive_integer
 from terrain.models.compare import (grid_markdown, markdown_table, plot_comparison, plot_grid,
                                     score_rows, soft_vote, spans_grid, summary_table,
                                     with_default_keys)
@@ -72,11 +72,12 @@ def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]
 def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("dirs", nargs="+", type=Path)
+    parser.add_argument("dirs", nargs="+", action=DistinctValues, type=Path)
     parser.add_argument("--vote", nargs="+", action="append", default=None,
                         help="members of one equal-weight vote; repeat for several votes "
                              "(default: svm cnn cnn-spectrogram)")
-    parser.add_argument("--history", type=positive_integer, nargs="+", default=[1, 5, 10])
+    parser.add_argument("--history", type=positive_integer, nargs="+", action=DistinctValues,
+                        default=[1, 5, 10])
     parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
     keys = ["protocol", "dataset", "signals", "window_s", "train_hop_s", "seed"]

@@ -24,7 +24,7 @@ import argparse
 import numpy as np
 import pandas as pd
 
-from pipelines.arguments import positive_number
+from pipelines.arguments import DistinctValues, positive_number
 from terrain.audit.frames import MANOEUVRES, prepare_frame
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.io.shipped import load_dataset
@@ -65,7 +65,8 @@ def main() -> int:
     """Print the current RMSE per terrain, cut-off and physics version; returns 0."""
     ap = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     ap.add_argument("--dataset", default="vulpi", choices=["borealtc", "vulpi"])
-    ap.add_argument("--cutoffs-hz", type=positive_number, nargs="+", default=[2.0, 1.0],
+    ap.add_argument("--cutoffs-hz", type=positive_number, nargs="+", action=DistinctValues,
+                    default=[2.0, 1.0],
                     help="input low-pass cut-offs, Hz (the record as measured is always "
                          "included)")
     args = ap.parse_args()

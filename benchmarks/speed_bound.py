@@ -40,7 +40,7 @@ import numpy as np
 from tqdm.auto import tqdm
 
 from features.slip_outputs import slip_model_outputs
-from pipelines.arguments import DistinctSeeds, seed_value, terrain_name
+from pipelines.arguments import DistinctSeeds, DistinctValues, seed_value, terrain_name
 from terrain.control.estimators import IMU_VIEWS
 from terrain.estimation.skid_steer_slip import STATE_NAMES
 from terrain.io.shipped import read_shipped
@@ -201,16 +201,17 @@ def online(args) -> int:
 
 def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
-    parser.add_argument("--terrains", nargs="+", type=terrain_name,
+    parser.add_argument("--terrains", nargs="+", action=DistinctValues, type=terrain_name,
                         default=["ASPHALT", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
-    parser.add_argument("--scenarios", nargs="+", choices=SCENARIO_NAMES,
+    parser.add_argument("--scenarios", nargs="+", action=DistinctValues, choices=SCENARIO_NAMES,
                         default=["straight_accel", "orchard", "slope_turn", "random"])
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])
-    parser.add_argument("--measured-terrains", nargs="*", type=terrain_name, default=[],
+    parser.add_argument("--measured-terrains", nargs="*", action=DistinctValues,
+                        type=terrain_name, default=[],
                         help="BorealTC terrains to run (default: all)")
     shipped = BATCH_FUSION.filter
-    parser.add_argument("--bounds", nargs="+", type=_bound,
+    parser.add_argument("--bounds", nargs="+", action=DistinctValues, type=_bound,
                         default=[(shipped.speed_bound_braking_slip, shipped.speed_bound_hold_s)],
                         help="bounds to compare as DEPTH[:HOLD_S], the braking slip's depth "
                              "and the hold, e.g. 0.3:1 0.5:0 (default: the shipped one)")

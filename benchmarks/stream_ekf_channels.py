@@ -48,7 +48,7 @@ import numpy as np
 import pandas as pd
 
 from features.windows import WindowConfig, make_windows
-from pipelines.arguments import DistinctSeeds, positive_number, seed_value
+from pipelines.arguments import DistinctSeeds, DistinctValues, positive_number, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.models.compare import Cell, cell_windows
 from terrain.models.cv import cross_validate
@@ -149,7 +149,8 @@ def main() -> int:
     parser.add_argument("--window-cv", action="store_true",
                         help="where the window-CV gain of the EKF channels comes from "
                              "(spectrogram CNN: all / all+ekf / windowed EKF)")
-    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--arms", nargs="+", action=DistinctValues,
+                        choices=ARMS, default=list(ARMS))
     parser.add_argument("--train-hop-s", type=positive_number, default=None,
                         help="hop of the training windows, s (default: the window, 2 s; "
                              "0.5 trains as the dense recipes of terrain stream-eval)")

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pipelines.arguments import integer_in, output_file, seed_value
+from pipelines.arguments import DistinctValues, integer_in, output_file, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (held_out_folds, raw_decisions, recipe_stream_names,
                                         score_stream, truth_at)
@@ -137,7 +137,7 @@ def main() -> int:
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
     parser.add_argument("--seed", type=seed_value, default=0)
     parser.add_argument("--fold", type=integer_in(0, 4), default=0)
-    parser.add_argument("--kinds", nargs="+", choices=list(RECIPES),
+    parser.add_argument("--kinds", nargs="+", action=DistinctValues, choices=list(RECIPES),
                         default=list(DEFAULT_RECIPES.values()))
     parser.add_argument("--out", type=output_file, default=Path("docs/streaming_example.png"))
     args = parser.parse_args()

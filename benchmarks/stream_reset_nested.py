@@ -49,7 +49,7 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from pipelines.arguments import DistinctSeeds, integer_in, output_dir, seed_value
+from pipelines.arguments import DistinctSeeds, DistinctValues, integer_in, output_dir, seed_value
 from pipelines.stream_eval import SMOOTHINGS
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import (held_out_folds, pool_scores, raw_decisions,
@@ -193,7 +193,7 @@ def main() -> int:
     ap.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=[0, 1, 2])
     ap.add_argument("--inner-folds", type=integer_in(2, 100), default=4)
     ap.add_argument("--out", type=output_dir, default=None, help="keep one JSON file per seed here")
-    ap.add_argument("--merge", type=Path, nargs="+", default=None,
+    ap.add_argument("--merge", type=Path, nargs="+", action=DistinctValues, default=None,
                     help="pool these JSON files of earlier runs instead of training")
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()

@@ -36,7 +36,7 @@ from types import MappingProxyType
 import numpy as np
 
 import terrain.sim.dynamics as dynamics
-from pipelines.arguments import output_file, positive_number
+from pipelines.arguments import DistinctValues, output_file, positive_number
 from terrain.audit.frames import MANOEUVRES, prepare_frame
 from terrain.audit.physics import (TUNED_TERRAINS, PhysicsComparisonSettings, _errors, _on,
                                    alternate_split, gain_table, per_run_errors)
@@ -299,11 +299,13 @@ def main() -> int:
                          "from this terrain's SoilParams")
     ap.add_argument("--variants", default="[{}]", help="JSON list of SoilParams overrides")
     ap.add_argument("--no-chi", action="store_true")
-    ap.add_argument("--side-force-factors", type=positive_number, nargs="+", metavar="K",
+    ap.add_argument("--side-force-factors", type=positive_number, nargs="+", action=DistinctValues,
+                    metavar="K",
                     help="instead of a soil sweep: the Husky tyre's side-force factor of the "
                          "rigid-surface combined-slip law, over the comma-separated --terrain "
                          "list (module docstring)")
-    ap.add_argument("--friction-factors", type=positive_number, nargs="+", metavar="F",
+    ap.add_argument("--friction-factors", type=positive_number, nargs="+", action=DistinctValues,
+                    metavar="F",
                     help="instead of a soil sweep: factors on the catalogue friction of the "
                          "Husky tyre on the --terrain list (rigid; friction_scale of "
                          "terrain.sim.forces.COMBINED_SLIP), the shipped k_S kept")

@@ -643,7 +643,26 @@ def seed_value(value: str) -> int:
     return number
 
 
-class DistinctSeeds(argparse.Action):
+class DistinctValues(argparse.Action):
+    """argparse action of a list option (``nargs="+"``): each value at most once.
+
+    A repeated value (``--models svm svm``, ``--terrains ICE ICE``) would run the same cell
+    twice and count it as two, or log one name's figures twice under one key. argparse
+    reports the error as a usage error naming the option.
+    """
+
+    what = "value(s)"
+    why = "each once: a repeated value runs and counts one cell twice"
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        repeated = duplicated(values)
+        if repeated:
+            parser.error(f"argument {option_string or self.dest}: {self.what} "
+                         f"{', '.join(map(str, repeated))} given twice ({self.why})")
+        setattr(namespace, self.dest, list(values))
+
+
+class DistinctSeeds(DistinctValues):
     """argparse action of a seed-list option (``nargs="+"``, ``type=seed_value``): each seed
     at most once.
 
@@ -652,13 +671,8 @@ class DistinctSeeds(argparse.Action):
     the error as a usage error naming the option.
     """
 
-    def __call__(self, parser, namespace, values, option_string=None):
-        repeated = duplicated(values)
-        if repeated:
-            parser.error(f"argument {option_string or self.dest}: seed(s) "
-                         f"{', '.join(map(str, repeated))} given twice (each seed once: a "
-                         f"repeated seed counts one run of it twice)")
-        setattr(namespace, self.dest, list(values))
+    what = "seed(s)"
+    why = "each seed once: a repeated seed counts one run of it twice"
 
 
 def add_cnn_seeds(parser: argparse.ArgumentParser, default: int = 1) -> None:

@@ -84,17 +84,53 @@ def test_every_seed_list_refuses_a_repeated_seed(capsys):
         seeds = [a for a in parser._actions if "--seeds" in a.option_strings]
         if not seeds or seeds[0].nargs != "+":   # no list of seeds
             continue
-        for action in parser._actions:
-            if action.option_strings:
-                action.required = False
-            else:
-                action.nargs = "?"
+        _optional(parser)
         with pytest.raises(SystemExit) as stop:
             parser.parse_args(["--seeds", "1", "1"])
         assert stop.value.code == 2, path.name
         assert "given twice" in capsys.readouterr().err, path.name
         checked.append(path.stem)
     assert len(checked) >= 10, checked      # 14 scripts take a list of seeds
+
+
+#: a valid value of the list options whose choices or default give none
+LIST_VALUES = {"--decided": "husky=ICE", "dirs": "a", "--merge": "a", "--bounds": "0.3",
+               "--side-force-factors": "2", "--friction-factors": "2",
+               "--measured-terrains": "ICE"}
+
+
+def _optional(parser):
+    for action in parser._actions:            # a missing required option or positional
+        if action.option_strings:             # would end the parse first
+            action.required = False
+        else:
+            action.nargs = "?"
+
+
+def test_every_list_option_refuses_a_repeated_value(capsys):
+    # `bench_models.py --models svm svm` timed the SVM twice and logged the second fit's
+    # figures over the first's under one key; `--terrains ICE ICE` ran every ICE cell twice
+    checked = []
+    for path in SCRIPTS:
+        for action in _parser(path)._actions:
+            if action.nargs not in ("+", "*") or action.dest == "vote":
+                continue                     # --vote: each use one group (action append)
+            name = action.option_strings[0] if action.option_strings else action.dest
+            value = (LIST_VALUES[name] if LIST_VALUES.get(name)
+                     else action.choices[0] if action.choices is not None
+                     else action.default[0])
+            parser = _parser(path)
+            _optional(parser)
+            for other in parser._actions:     # the positional tested keeps its list
+                if other.dest == action.dest:
+                    other.nargs = action.nargs
+            argv = [str(value), str(value)]
+            with pytest.raises(SystemExit) as stop:
+                parser.parse_args(([name] if action.option_strings else []) + argv)
+            assert stop.value.code == 2, (path.name, name)
+            assert "given twice" in capsys.readouterr().err, (path.name, name)
+            checked.append(f"{path.stem} {name}")
+    assert len(checked) >= 35, checked      # 39 list options in 19 scripts
 
 
 BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", "0"),
@@ -129,11 +165,7 @@ BAD_VALUES = [("bench_control", "--chunk", "0"), ("bench_control", "--repeats", 
                          ids=[f"{s}{o}={v}" for s, o, v in BAD_VALUES])
 def test_an_option_out_of_its_range_is_a_usage_error(script, option, value, capsys):
     parser = _parser(SCRIPTS[[p.stem for p in SCRIPTS].index(script)])
-    for action in parser._actions:            # a missing required option or positional
-        if action.option_strings:             # would end the parse first
-            action.required = False
-        else:
-            action.nargs = "?"
+    _optional(parser)
     with pytest.raises(SystemExit) as stop:
         parser.parse_args([option, value])
     assert stop.value.code == 2
