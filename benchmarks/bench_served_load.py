@@ -1,7 +1,8 @@
 """Benchmark: bounded load test of the served streaming model on 127.0.0.1.
 
 A streaming model is fitted on BorealTC (the ``--kind`` recipe of
-:mod:`terrain.serving.evaluation`, or read with ``--model DIR``), saved as ``terrain train
+:mod:`terrain.serving.evaluation`, or read with ``--model DIR``, whose own channels then
+choose the streams sent), saved as ``terrain train
 --model-out`` would, and served by ``terrain serve`` (MLflow's scoring server app) on a free
 loopback port. ``--requests`` requests (default 2,000), ``--concurrency`` at a time (default
 4), each carrying ``--request-s`` seconds of raw logged streams of one run (long format,
@@ -48,7 +49,7 @@ from pipelines.serve import is_served_model
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
 from terrain.run import TIME
-from terrain.serving.evaluation import recipe_stream_names
+from terrain.serving.evaluation import model_stream_names
 from terrain.serving.pyfunc import save_model
 from terrain.serving import load_stream_model
 from terrain.serving.recipes import RECIPES, fit_stream_model
@@ -202,7 +203,10 @@ def main() -> int:
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     runs = load_dataset("borealtc")
-    streams = recipe_stream_names(RECIPES[args.kind])
+    # a model read with --model is not --kind's: its own channels choose the streams sent,
+    # and its folder names it in the output and the MLflow run
+    args.label = str(args.model) if args.model else args.kind
+    args.source = {"model": str(args.model)} if args.model else {"kind": args.kind}
     with tempfile.TemporaryDirectory() as tmp:
         model_dir = args.model
         if model_dir is None:
@@ -210,9 +214,11 @@ def main() -> int:
             model_dir = save_model(Path(tmp) / "model", m.pipeline, m.channels, m.window,
                                    m.classes, {"dataset": "borealtc", "kind": args.kind})
         try:
-            window = load_stream_model(model_dir).window
+            model = load_stream_model(model_dir)
+            streams = model_stream_names(model)
         except (ConfigError, OSError) as exc:     # --model DIR that holds no model
             parser.error(f"argument --model: {exc}")
+        window = model.window
         request_s = max(args.request_s, window.window_s + 1.0)
         longest = max((r.duration_s for r in runs if all(s in r.streams for s in streams)),
                       default=0.0)
@@ -242,7 +248,7 @@ def main() -> int:
                "served_throughput_rps": len(results) / wall, "served_wall_s": wall,
                "served_p50_ms": float(np.percentile(lat, 50)),
                "served_p99_ms": float(np.percentile(lat, 99))}
-    print(f"served {args.kind} model ({window.window_s:g} s windows): {len(results)} requests "
+    print(f"served model {args.label} ({window.window_s:g} s windows): {len(results)} requests "
           f"of {request_s:g} s of stream, {args.concurrency} concurrent, in {wall:.1f} s: "
           f"{metrics['served_throughput_rps']:.1f} req/s, {errors} errors; latency p50 "
           f"{metrics['served_p50_ms']:.1f} ms, p99 {metrics['served_p99_ms']:.1f} ms")
@@ -261,8 +267,8 @@ def main() -> int:
               f"{metrics['served_over_inprocess_throughput']:.2f}x, p50 "
               f"{metrics['served_over_inprocess_p50']:.2f}x")
     if not args.no_mlflow:
-        _log(f"served-load-{args.kind}", metrics,
-             {"kind": args.kind, "requests": args.requests, "concurrency": args.concurrency,
+        _log(f"served-load-{'model' if args.model else args.kind}", metrics,
+             {**args.source, "requests": args.requests, "concurrency": args.concurrency,
               "request_s": request_s, "reference": len(reference)})
     return 0
 
@@ -283,14 +289,14 @@ def _behind_long(args, runs, streams, model_dir: Path, request_s: float) -> int:
                "behind_long_later_short_max_s": max(short[1:], default=float("nan")),
                "behind_long_long_max_s": max(result["long_s"]),
                "behind_long_errors": result["errors"]}
-    print(f"served {args.kind} model: {len(longs)} long requests of "
+    print(f"served model {args.label}: {len(longs)} long requests of "
           f"{min(map(len, longs)) / 1e6:.1f}-{max(map(len, longs)) / 1e6:.1f} MB at once, "
           f"then {len(short)} of {request_s:g} s: first short {short[0]:.2f} s, later ones "
           f"at most {metrics['behind_long_later_short_max_s']:.2f} s; longest long request "
           f"{metrics['behind_long_long_max_s']:.1f} s; {result['errors']} errors")
     if not args.no_mlflow:
-        _log(f"served-behind-long-{args.kind}", metrics,
-             {"kind": args.kind, "behind_long": args.behind_long,
+        _log(f"served-behind-long-{'model' if args.model else args.kind}", metrics,
+             {**args.source, "behind_long": args.behind_long,
               "long_bytes": args.long_bytes, "request_s": request_s})
     return 0
 

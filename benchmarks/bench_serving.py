@@ -18,7 +18,9 @@
 
 The model is trained here on BorealTC with the ``--kind`` recipe
 (:data:`terrain.serving.recipes.RECIPES`; default the default all-signal recipe,
-:data:`~terrain.serving.recipes.DEFAULT_RECIPES`), or read with ``--model DIR``. Results
+:data:`~terrain.serving.recipes.DEFAULT_RECIPES`), or read with ``--model DIR`` (then
+its own channels choose the streams replayed,
+:func:`~terrain.serving.evaluation.model_stream_names`, and ``--kind`` is not used). Results
 print and are logged to MLflow (experiment ``terrain-benchmark``).
 
 Every timed decision is followed by a fixed NumPy reference workload (a sort of 4096
@@ -50,7 +52,8 @@ from terrain.models.window_ekf import WindowEKFClassifier
 from terrain.run import TIME
 from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
                              interleave, load_stream_model)
-from terrain.serving.evaluation import concatenated_streams, recipe_stream_names
+from terrain.serving.evaluation import (concatenated_streams, model_stream_names,
+                                        recipe_stream_names)
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.tracking import tracked_run
 
@@ -170,14 +173,15 @@ def main() -> int:
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
     runs = load_dataset("borealtc")
-    recipe = RECIPES[args.kind]
-    need = recipe_stream_names(recipe)
     if args.model:
         try:
             model = load_stream_model(args.model)
+            need = model_stream_names(model)    # the model's streams, whatever --kind says
         except (ConfigError, OSError) as exc:
             parser.error(f"argument --model: {exc}")
     else:
+        recipe = RECIPES[args.kind]
+        need = recipe_stream_names(recipe)
         model = fit_stream_model(recipe, runs, seed=0)
     usable = [r for r in runs if all(s in r.streams for s in need)]
     longest = max(usable, key=lambda r: r.duration_s)
@@ -204,8 +208,11 @@ def main() -> int:
         "reference_p50_ms"]
     metrics["decision_p99_over_reference"] = metrics["decision_p99_ms"] / metrics[
         "reference_p99_ms"]
-    print(f"model {args.kind} ({len(model.channels)} channels, {model.window.window_s:g} s "
-          f"at {model.window.rate_hz:g} Hz); latency of one decision on {longest.run_id}: "
+    # a model read with --model is not --kind's: name it by its folder
+    source = {"model": str(args.model)} if args.model else {"kind": args.kind}
+    print(f"model {next(iter(source.values()))} ({len(model.channels)} channels, "
+          f"{model.window.window_s:g} s at {model.window.rate_hz:g} Hz); latency of one "
+          f"decision on {longest.run_id}: "
           f"p50 {metrics['decision_p50_ms']:.3f} ms, p99 {metrics['decision_p99_ms']:.3f} ms, "
           f"max {metrics['decision_max_ms']:.3f} ms ({lat.size} decisions after "
           f"{args.warmup} warm-up); of which the model's pipeline (features + classifier "
@@ -231,8 +238,9 @@ def main() -> int:
         metrics.update({f"soak_{k}": v for k, v in _soak(model, usable, need,
                                                          args.minutes).items()})
     if not args.no_mlflow:
-        with tracked_run("terrain-benchmark", run_name=f"serving-{args.kind}",
-                         params={"kind": args.kind, "minutes": args.minutes},
+        name = f"serving-{'model' if args.model else args.kind}"
+        with tracked_run("terrain-benchmark", run_name=name,
+                         params={**source, "minutes": args.minutes},
                          announce=False) as run:
             run.log_metrics(metrics)
         print(run.describe())

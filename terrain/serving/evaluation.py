@@ -554,6 +554,28 @@ def recipe_stream_names(recipe: ModelRecipe) -> tuple[str, ...]:
     return ("imu", "wheels") if recipe.signals != "wheels" else ("wheels",)
 
 
+def model_stream_names(model: StreamModel) -> tuple[str, ...]:
+    """Streams a fitted model reads (:attr:`StreamService.needed_streams` under the default
+    stream layout), for a model read from a folder whose recipe is not known.
+
+    Parameters
+    ----------
+    model : StreamModel
+        The fitted model.
+
+    Returns
+    -------
+    tuple of str
+        E.g. ``("wheels",)`` for a wheel-only model, ``("imu", "wheels")`` for all signals.
+
+    Raises
+    ------
+    ConfigError
+        A channel of the model in none of the default streams.
+    """
+    return StreamService(model, CataloguePeakTargets(model.classes)).needed_streams
+
+
 def held_out_folds(runs: Sequence[Run], streams: Sequence[str], seed: int,
                    n_splits: int = 5, switch_gap_s: float = 0.0, progress: bool = False
                    ) -> Iterator[tuple[int, list[Run], Run, list[Segment]]]:

@@ -66,6 +66,7 @@ def test_a_request_longer_than_every_run_is_a_usage_error(script, monkeypatch, c
     monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
     monkeypatch.setitem(env, "load_stream_model",
                         lambda path: SimpleNamespace(window=SimpleNamespace(window_s=2.0)))
+    monkeypatch.setitem(env, "model_stream_names", lambda model: ("wheels",))
     monkeypatch.setattr(sys, "argv", ["bench_served_load.py", "--model", "m", "--request-s",
                                       "600", "--no-mlflow"])
     with pytest.raises(SystemExit) as stop:
@@ -119,6 +120,7 @@ def test_served_and_in_process_figures_in_ms_and_requests_per_second(script, mon
     monkeypatch.setitem(env, "load_dataset", lambda name: [_run("r", 60.0)])
     monkeypatch.setitem(env, "load_stream_model",
                         lambda path: SimpleNamespace(window=SimpleNamespace(window_s=2.0)))
+    monkeypatch.setitem(env, "model_stream_names", lambda model: ("wheels",))
     monkeypatch.setitem(env, "is_served_model", lambda path: True)
     proc = SimpleNamespace(terminate=lambda: None, wait=lambda timeout: 0)
     monkeypatch.setitem(env, "_serve", lambda model_dir, served_out=None: (proc, "http://x"))
@@ -152,3 +154,39 @@ def test_a_model_directory_that_is_no_model_is_a_usage_error(script, monkeypatch
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "argument --model" in err and "does not exist" in err
+
+
+def test_a_model_given_by_folder_chooses_the_streams_sent(script, monkeypatch, capsys,
+                                                          logged_metrics):
+    # `--model DIR` of an all-signal model sent only the wheels stream of `--kind`'s default
+    # recipe: every request lacked the IMU channels and counted as an error
+    env = script["main"].__globals__
+    logged = logged_metrics(env)
+    sent = []
+    run = _run("r", 60.0)
+    run.streams["imu"] = run.streams["wheels"]
+    monkeypatch.setitem(env, "load_dataset", lambda name: [run])
+    model = SimpleNamespace(window=SimpleNamespace(window_s=2.0))
+    monkeypatch.setitem(env, "load_stream_model", lambda path: model)
+    monkeypatch.setitem(env, "model_stream_names",
+                        lambda m: ("imu", "wheels") if m is model else ())
+    monkeypatch.setitem(env, "request_bodies",
+                        lambda runs, streams, request_s, n: sent.append(streams) or ["b"] * n)
+    monkeypatch.setitem(env, "is_served_model", lambda path: True)
+    proc = SimpleNamespace(terminate=lambda: None, wait=lambda timeout: 0)
+    monkeypatch.setitem(env, "_serve", lambda model_dir, served_out=None: (proc, "http://x"))
+    monkeypatch.setitem(env, "_post", lambda url, body: (True, 0.01))
+    monkeypatch.setitem(env, "in_process_latencies", lambda model_dir, bodies: np.array([]))
+    monkeypatch.setattr(sys, "argv", ["bench_served_load.py", "--model", "m", "--requests",
+                                      "3", "--reference", "0"])
+    assert script["main"]() == 0
+    assert sent == [("imu", "wheels")]
+    assert "served model m (2 s windows): 3 requests" in capsys.readouterr().out
+    assert logged["served_requests"] == 3
+
+
+def test_model_stream_names_are_the_streams_of_the_model_channels(wheel_model, all_model):
+    from terrain.serving.evaluation import model_stream_names
+
+    assert model_stream_names(wheel_model) == ("wheels",)
+    assert model_stream_names(all_model) == ("imu", "wheels")

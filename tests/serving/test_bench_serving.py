@@ -153,3 +153,25 @@ def test_a_model_directory_that_is_no_model_is_a_usage_error(script, monkeypatch
     assert stop.value.code == 2
     err = capsys.readouterr().err
     assert "argument --model" in err and "does not exist" in err
+
+
+def test_a_model_given_by_folder_times_the_runs_holding_its_streams(script, monkeypatch,
+                                                                     capsys, logged_metrics):
+    # `--model DIR` of a wheel-only model kept the default all-signal recipe's streams: the
+    # runs without an IMU were left out (here every run: max() of nothing, a ValueError)
+    env = script["main"].__globals__
+    logged = logged_metrics(env)
+    timed = []
+    model = _Model(_Pipeline())
+    run = SimpleNamespace(run_id="r", duration_s=60.0, streams={"wheels": 0})
+    monkeypatch.setitem(env, "load_dataset", lambda name: [run])
+    monkeypatch.setitem(env, "load_stream_model", lambda path: model)
+    monkeypatch.setitem(env, "model_stream_names", lambda m: ("wheels",))
+    monkeypatch.setitem(env, "latency", lambda m, r, warmup: timed.append(r) or {
+        k: np.full(3, 1e-3) for k in ("decision", "in_decision", "hot", "reference")})
+    monkeypatch.setitem(env, "pipeline_parts", lambda m, r: {})
+    monkeypatch.setattr(sys, "argv", ["bench_serving.py", "--model", "m", "--minutes", "0"])
+    assert script["main"]() == 0
+    assert timed == [run]
+    assert capsys.readouterr().out.startswith("model m (1 channels")
+    assert logged["decisions_timed"] == 3
