@@ -195,11 +195,18 @@ def _text_read_back(cell) -> bool:
 
 def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
     """ConfigError for a text channel that the readers would refuse or change (a line
-    break, a number or an empty cell among text, spaces around a label)."""
+    break, a number or an empty cell among text, spaces around a label), or a boolean
+    channel (read back as text)."""
     for (kind, frame), name in zip(frames.items(), run.streams):
         for column in frame.columns:
             cells = frame[column]
-            if cells.dtype.kind in "iufcbmM" or not any(isinstance(c, str) for c in cells):
+            if cells.dtype.kind == "b" or str(cells.dtype) == "boolean":
+                # to_csv writes True/False, which the readers take as a text channel
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: column {column!r} holds booleans, "
+                    f"which {kind}_XX.csv would read back as the text 'True'/'False'; write "
+                    "them as numbers (0/1)")
+            if cells.dtype.kind in "iufcmM" or not any(isinstance(c, str) for c in cells):
                 continue
             bad = next((k for k, c in enumerate(cells) if not _text_read_back(c)), None)
             if bad is not None:

@@ -53,3 +53,20 @@ def test_a_text_channel_of_labels_reads_back_as_written(tmp_path, labels):
         warnings.simplefilter("ignore")
         (back,) = read_runs_dir(tmp_path)
     assert list(back.streams["truth"]["terrain"]) == labels
+
+
+@pytest.mark.parametrize("dtype", [bool, "boolean"])
+def test_a_boolean_channel_is_refused_before_writing(tmp_path, dtype):
+    # to_csv wrote True/False, which the readers took as a text channel: a contact flag
+    # came back as the strings 'True' and 'False'
+    run = _run(["SNOW", "ICE", "SNOW"])
+    run.streams["truth"]["contact"] = pd.Series([True, False, True], dtype=dtype)
+    with pytest.raises(ConfigError) as info:
+        write_run(run, tmp_path)
+    assert "column 'contact' holds booleans" in str(info.value)
+    assert "'truth'" in str(info.value) and "0/1" in str(info.value)
+    assert not any(tmp_path.iterdir())
+    run.streams["truth"]["contact"] = run.streams["truth"]["contact"].astype(int)
+    write_run(run, tmp_path)
+    back = read_runs_dir(tmp_path)[0].streams["truth"]["contact"]
+    assert back.tolist() == [1, 0, 1]
