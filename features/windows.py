@@ -10,6 +10,7 @@ partition (``partition_s``).
 from __future__ import annotations
 
 import copy
+import datetime
 import math
 from dataclasses import dataclass, field
 from types import MappingProxyType
@@ -409,6 +410,15 @@ class WindowSet:
                          self.rate_hz, counts)
 
 
+def _is_real(value) -> bool:
+    """Whether Python's ``float`` reads ``value`` as a number (a list or a dict it does not)."""
+    try:
+        float(value)
+    except (TypeError, ValueError):
+        return False
+    return True
+
+
 def as_windows(X, channels: Sequence[str]) -> np.ndarray:
     """``X`` as float windows holding one row per channel, refused otherwise.
 
@@ -426,22 +436,31 @@ def as_windows(X, channels: Sequence[str]) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        ``X`` as a float array.
+        ``X`` as a float array; a missing item of an object array (None, ``pandas.NA``)
+        is NaN, which the transformers refuse as non-finite.
 
     Raises
     ------
     ValueError
-        ``X`` not of real numbers (booleans, text, complex, as the array's dtype or as
-        items of an object array: a conversion to float made a mask samples of 0 and 1,
-        parsed text and dropped imaginary parts), not of 3
+        ``X`` not of real numbers (booleans, text, complex, times, as the array's dtype
+        or as items of an object array: a conversion to float made a mask samples of 0
+        and 1, parsed text, dropped imaginary parts and read a datetime64 as its days
+        since 1970; lists and other objects float() does not read), not of 3
         dimensions, of another number of channels than ``channels``, or of 0 windows.
     """
     X = np.asarray(X)
     if X.dtype.kind not in "iufO":     # (object: a pandas or mixed array, converted below)
         raise ValueError(f"X must hold real numbers (signal samples), got dtype {X.dtype}")
     if X.dtype.kind == "O":           # (astype(float) read True as 1.0 and parsed "1.5")
-        kinds = (bool, np.bool_, str, bytes, complex, np.complexfloating)
+        # (a datetime64 item was read as its count of days or seconds since 1970)
+        kinds = (bool, np.bool_, str, bytes, complex, np.complexfloating, np.datetime64,
+                 np.timedelta64, datetime.date, datetime.timedelta)
         odd = next((v for v in X.flat if isinstance(v, kinds)), None)
+        if odd is None:
+            # a missing value (None, pandas' NA of a nullable column) is NaN, which the
+            # transformers refuse naming channel and window (pd.NA was a bare TypeError)
+            X = np.where(pd.isna(X), np.nan, X)
+            odd = next((v for v in X.flat if not _is_real(v)), None)
         if odd is not None:
             raise ValueError(f"X must hold real numbers (signal samples), got an object array "
                              f"holding {odd!r} ({type(odd).__name__})")

@@ -15,7 +15,7 @@ from features.slip_features import SLIP_CHANNELS, slip_feature_matrix, window_fe
 from features.transformers import WindowFeatures
 from features.wheel_physics import PHYSICS_FEATURES, WheelPhysicsFeatures, physics_features
 from features.windows import WindowConfig, make_windows, window_frame
-from terrain.run import IMU_CHANNELS, TIME, Run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.slip import skid_steer_side_slip
 from terrain.vehicles import HUSKY
 
@@ -466,3 +466,45 @@ def test_the_operating_point_features_are_numpys_of_the_speed_and_turn_rate(
     back = physics_features(-np.full((1, n_samples), 0.5), -np.full((1, n_samples), 0.5),
                             cl[:1], cr[:1], rate)
     assert back[0, PHYSICS_FEATURES.index("vel_mean__std")] == 0.0
+
+
+@pytest.mark.parametrize("missing", [None, pd.NA, np.nan])
+@pytest.mark.parametrize("make", [WindowFeatures, WheelPhysicsFeatures])
+def test_a_missing_value_of_an_object_window_array_is_refused_as_nan_naming_its_channel(
+        missing, make):
+    """Windows of a nullable pandas column are an object array holding pd.NA where a value
+    is missing: as None, it is a NaN the transformers refuse naming channel and window (it
+    was a bare TypeError of float(), naming neither)."""
+    X = np.ones((2, 4, 10), dtype=object)
+    X[1, 2, 3] = missing
+    fx = make(WHEEL_CHANNELS, 10.0)
+    with pytest.raises(ValueError, match=r"X contains NaN or inf \(1 value\): 'cur_l' in "
+                                         r"window 1"):
+        fx.fit_transform(X)
+    # (a frame of nullable columns: its to_numpy() is an object array holding pd.NA)
+    frame = pd.DataFrame({"x": pd.array([1.0] * 79 + [None], dtype="Float64"),
+                          "n": pd.array([2] * 80, dtype="Int64")})
+    windows = frame.to_numpy()[:, 0].reshape(2, 4, 10)
+    assert windows.dtype == object and windows[1, 3, 9] is pd.NA
+    with pytest.raises(ValueError, match=r"'cur_r' in window 1"):
+        fx.fit_transform(windows)
+
+
+@pytest.mark.parametrize("value", [np.datetime64("2026-01-01"), np.timedelta64(3, "s"),
+                                   pd.Timestamp("2026-01-01"), pd.Timedelta(3, "s"), pd.NaT,
+                                   [1.0], {"a": 1.0}])
+def test_an_object_window_array_holding_times_or_containers_is_refused_naming_the_item(value):
+    """A datetime64 item was read as its days since 1970 (the datetime64 dtype itself is
+    refused), a Timestamp, Timedelta, NaT (a missing time) or a dict ended in a bare
+    TypeError of float(), a list in NumPy's 'setting an array element with a sequence':
+    each is refused as not a real number, naming the item."""
+    X = np.ones((2, 4, 10), dtype=object)
+    X[0, 1, 5] = value
+    for make in (WindowFeatures, WheelPhysicsFeatures):
+        with pytest.raises(ValueError, match=r"X must hold real numbers \(signal samples\), "
+                                             r"got an object array holding"):
+            make(WHEEL_CHANNELS, 10.0).fit_transform(X)
+    # plain numbers of any kind in an object array are still read
+    ok = np.ones((2, 4, 10), dtype=object)
+    ok[0, 1, 5], ok[1, 0, 0] = np.float32(2.0), 3
+    assert np.isfinite(WheelPhysicsFeatures(WHEEL_CHANNELS, 10.0).fit_transform(ok)).all()
