@@ -117,8 +117,10 @@ def burckhardt_traction(abs_slip: np.ndarray, c1: float, c2: float, c3: float
     -------
     mu, dmu_ds : ndarray, shape (...)
     """
-    e = np.exp(-c2 * abs_slip)
-    return c1 * (1.0 - e) - c3 * abs_slip, c1 * c2 * e - c3
+    # 1 - exp(-c2 s) as -expm1: written out it lost its digits at small slip and rounded to
+    # 0 below c2 s ~ 1e-16, leaving -c3 s, a traction against the slip
+    x = -c2 * np.asarray(abs_slip, dtype=float)
+    return c1 * -np.expm1(x) - c3 * abs_slip, c1 * c2 * np.exp(x) - c3
 
 
 def janosi_traction(abs_slip: np.ndarray, mu_max: float, shear_slip: float,
