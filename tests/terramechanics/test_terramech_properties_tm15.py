@@ -70,10 +70,12 @@ def test_sinkage_grows_with_the_load_and_falls_with_the_soil_stiffness(soil, w1,
     lo, hi = sorted((w1, w2))
     z_lo, l_lo = wheel_sinkage_m(lo, B, L0, R, params)
     z_hi, l_hi = wheel_sinkage_m(hi, B, L0, R, params)
-    assert 0.0 < z_lo < z_hi <= R
+    assert 0.0 < z_lo <= z_hi <= R                 # capped at the radius (SNOW, 550 N)
+    assert z_lo < z_hi or z_lo == R
     assert L0 <= l_lo <= l_hi <= 2 * R
     stiff = replace(params, k_c=stiffer * params.k_c, k_phi=stiffer * params.k_phi)
-    assert wheel_sinkage_m(hi, B, L0, R, stiff)[0] < z_hi
+    z_stiff = wheel_sinkage_m(hi, B, L0, R, stiff)[0]
+    assert z_stiff < z_hi or z_stiff == R
     layer = replace(params, layer_depth_m=0.5 * z_hi)
     assert wheel_sinkage_m(hi, B, L0, R, layer)[0] == pytest.approx(0.5 * z_hi, rel=1e-12)
 
@@ -169,3 +171,41 @@ def test_burckhardt_traction_keeps_its_digits_at_tiny_slip(name, s):
     x = curve.c2 * s                                 # <= 3e-7: the series to x^3 is exact
     expected = curve.c1 * (x - x * x / 2 + x ** 3 / 6) - curve.c3 * s
     assert mu == pytest.approx(expected, rel=1e-9, abs=0.0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(c1=st.floats(0.05, 1.5), c2=st.floats(5.0, 300.0), log_c3=st.floats(-6.0, 0.0))
+def test_burckhardt_peak_is_its_closed_form_however_little_it_falls(c1, c2, log_c3):
+    # d mu / ds = c1 c2 e^(-c2 s) - c3 = 0 at s* = ln(c1 c2 / c3) / c2: a curve that falls
+    # past s* by a fraction as small as 1e-6 of its peak still has that interior peak
+    from terrain.terramechanics.traction import BurckhardtCurve
+    c3 = 10.0 ** log_c3
+    s_star = np.log(c1 * c2 / c3) / c2
+    assume(0.01 < s_star < 0.99)
+    curve = BurckhardtCurve(c1, c2, c3)
+    mu_star = c1 * -np.expm1(-c2 * s_star) - c3 * s_star
+    mu_one = c1 * -np.expm1(-c2) - c3
+    assume(mu_star - mu_one > 1e-6 * mu_star)
+    peak = traction_peak(curve)
+    assert not peak.monotonic
+    assert peak.slip == pytest.approx(s_star, abs=1e-4)
+    assert peak.mu == pytest.approx(mu_star, rel=1e-9)
+
+
+@pytest.mark.parametrize("soil", ["SANDY_LOAM", "SNOW"])
+def test_a_load_above_the_table_gets_its_largest_row_with_slip_sinkage_and_shared_shear(soil):
+    # soil_lateral_force_and_slope: "a load above the table gets the strength and contact
+    # length of its largest row", also on a soil whose strength is recomputed at the slipping
+    # wheel's deeper wall (slip sinkage) and shared with the traction (combined shear)
+    params = replace(SOILS[soil], slip_sinkage_ratio=2.0, combined_shear=True)
+    contact = soil_contact(params, B, L0, R, 2.0 * W)
+    top = contact.load_grid_n[-1]
+    kw = dict(slip_ratio=np.full(2, 0.3), shear_long=np.full(2, 0.5))
+    force, slope, share = soil_lateral_force_and_slope(
+        contact, np.array([top, 3.0 * top]), np.full(2, 0.05), np.full(2, 0.5), **kw)
+    assert force[1] == pytest.approx(force[0], rel=1e-12)
+    assert slope[1] == pytest.approx(slope[0], rel=1e-12)
+    np.testing.assert_allclose(share[1], share[0], rtol=1e-12)
+    low, _, _ = soil_lateral_force_and_slope(contact, np.array([-50.0, 0.0]), np.full(2, 0.05),
+                                             np.full(2, 0.5), **kw)
+    assert np.all(low == 0.0)                      # a negative load is an unloaded wheel
