@@ -209,3 +209,35 @@ def test_a_load_above_the_table_gets_its_largest_row_with_slip_sinkage_and_share
     low, _, _ = soil_lateral_force_and_slope(contact, np.array([-50.0, 0.0]), np.full(2, 0.05),
                                              np.full(2, 0.5), **kw)
     assert np.all(low == 0.0)                      # a negative load is an unloaded wheel
+
+
+@settings(max_examples=150, deadline=None)
+@given(a_long=st.floats(-50.0, 50.0), a_lat=st.floats(-50.0, 50.0),
+       kr=st.sampled_from((None, 0.4, 0.9)))
+def test_combined_shear_shares_ignore_signs_and_stay_in_zero_one(a_long, a_lat, kr):
+    # combined_shear_shares: "sign ignored", shares in (0, 1], 1 where the other direction
+    # does not slip, and the resultant of the two shared forces never exceeds the strength
+    from terrain.terramechanics.lateral import combined_shear_shares, shear_mobilisation
+    ref = combined_shear_shares(np.array([abs(a_long)]), np.array([abs(a_lat)]), kr)
+    got = combined_shear_shares(np.array([a_long]), np.array([a_lat]), kr)
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=0.0)
+    share_x, share_y = float(got[0][0]), float(got[1][0])
+    assert 0.0 < share_x <= 1.0 + 1e-12 and 0.0 < share_y <= 1.0 + 1e-12
+    if a_lat == 0.0:
+        assert share_x == pytest.approx(1.0, rel=1e-12)
+    g_x, g_y = shear_mobilisation(np.array([abs(a_long), abs(a_lat)]), kr)
+    assert np.hypot(share_x * g_x, share_y * g_y) <= 1.0
+
+
+@settings(max_examples=100, deadline=None)
+@given(soil=st.sampled_from(sorted(SOILS)), load=st.floats(1.0, 1000.0), k=st.floats(0.1, 10.0),
+       area=st.floats(1.1, 4.0))
+def test_bekker_plate_sinkage_scales_as_the_load_to_the_power_one_over_n(soil, load, k, area):
+    # p = W / (b l) = (k_c / b + k_phi) z^n: z(k W) = k^(1/n) z(W); a longer plate sinks less
+    from terrain.terramechanics.resistance import bekker_sinkage_m
+    s = SOILS[soil]
+    z = bekker_sinkage_m(load, B, L0, s.k_c, s.k_phi, s.n)
+    assert bekker_sinkage_m(k * load, B, L0, s.k_c, s.k_phi, s.n) == pytest.approx(
+        k ** (1.0 / s.n) * z, rel=1e-12)
+    assert bekker_sinkage_m(load, B, area * L0, s.k_c, s.k_phi, s.n) == pytest.approx(
+        area ** (-1.0 / s.n) * z, rel=1e-12)
