@@ -221,14 +221,17 @@ class BurckhardtCurve:
     ----------
     c1, c2, c3 : float
         Coefficients (dimensionless): ``c1``, ``c2`` finite and > 0, ``c3`` finite and >= 0,
-        and ``c1 c2 > c3`` (the slope ``d mu / d s = c1 c2 - c3`` at ``s = 0``).
+        ``c1 c2 > c3`` (the slope ``d mu / d s = c1 c2 - c3`` at ``s = 0``) and
+        ``c1 (1 - exp(-c2)) >= c3`` (``mu(1) >= 0``: the traction never turns against the
+        slip).
     source : str
         Citation of the coefficients.
 
     Raises
     ------
     ConfigError
-        A coefficient outside its range (``mu`` would not rise from 0 at ``s = 0``, or NaN).
+        A coefficient outside its range (``mu`` would not rise from 0 at ``s = 0``, would turn
+        negative before full slip, or NaN).
     """
 
     c1: float
@@ -245,6 +248,13 @@ class BurckhardtCurve:
         if not self.c1 * self.c2 > self.c3:
             raise ConfigError(f"BurckhardtCurve: need c1 c2 > c3 (mu must rise from 0 at s = 0: "
                               f"slope c1 c2 - c3), got c1 c2 = {self.c1 * self.c2} and c3 = "
+                              f"{self.c3}")
+        # the curve is concave: mu >= 0 on [0, 1] exactly when mu(1) >= 0
+        mu_full = self.c1 * -math.expm1(-self.c2) - self.c3
+        if not mu_full >= 0.0:
+            raise ConfigError(f"BurckhardtCurve: need mu(1) = c1 (1 - exp(-c2)) - c3 >= 0 (a "
+                              f"traction against the slip pushes a spinning wheel's body "
+                              f"backward), got mu(1) = {mu_full:.6g} for {self.c1}, {self.c2}, "
                               f"{self.c3}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:

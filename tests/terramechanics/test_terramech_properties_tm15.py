@@ -182,10 +182,11 @@ def test_burckhardt_peak_is_its_closed_form_however_little_it_falls(c1, c2, log_
     c3 = 10.0 ** log_c3
     s_star = np.log(c1 * c2 / c3) / c2
     assume(0.01 < s_star < 0.99)
-    curve = BurckhardtCurve(c1, c2, c3)
     mu_star = c1 * -np.expm1(-c2 * s_star) - c3 * s_star
     mu_one = c1 * -np.expm1(-c2) - c3
+    assume(mu_one >= 0.0)                    # a curve that turns negative is refused
     assume(mu_star - mu_one > 1e-6 * mu_star)
+    curve = BurckhardtCurve(c1, c2, c3)
     peak = traction_peak(curve)
     assert not peak.monotonic
     assert peak.slip == pytest.approx(s_star, abs=1e-4)
@@ -241,3 +242,19 @@ def test_bekker_plate_sinkage_scales_as_the_load_to_the_power_one_over_n(soil, l
         k ** (1.0 / s.n) * z, rel=1e-12)
     assert bekker_sinkage_m(load, B, area * L0, s.k_c, s.k_phi, s.n) == pytest.approx(
         area ** (-1.0 / s.n) * z, rel=1e-12)
+
+
+@pytest.mark.parametrize("c1, c2, c3", [(0.1, 5.0, 0.2), (0.5, 2.0, 0.6)])
+def test_burckhardt_curve_refuses_a_traction_that_turns_against_the_slip(c1, c2, c3):
+    # c1 c2 > c3 (the curve rises from 0) but c1 (1 - e^-c2) < c3: mu(1) < 0, so a wheel
+    # spinning forward at full slip pushed the body backward (0.1, 5, 0.2: mu(1) = -0.10,
+    # negative from s = 0.445 on) and the contact gave the body more power than its motors put
+    # in; the curve is concave, so mu(1) >= 0 is mu >= 0 on all of [0, 1]
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.traction import BurckhardtCurve
+    with pytest.raises(ConfigError, match=r"BurckhardtCurve.*mu\(1\)"):
+        BurckhardtCurve(c1, c2, c3)
+    # the published sets keep mu >= 0 up to full slip (Kiencke & Nielsen's table)
+    for name in RIGID:
+        curve = get_terrain(name).curve
+        assert curve.c1 * -np.expm1(-curve.c2) >= curve.c3
