@@ -35,3 +35,27 @@ def test_the_terrain_changes_after_the_distance_travelled_sideways_too():
     assert abs(p.pose[-1, 0]) < 0.05 and abs(p.pose[-1, 1]) > 1.0
     np.testing.assert_array_equal(p.terrain_index, (travelled // 0.4).astype(int) % 2)
     assert set(p.terrain_index.tolist()) == {0, 1}
+
+
+def test_combined_shear_scales_the_traction_slope_by_its_share_too():
+    # the slope the Jacobian and the reach chord use is the shared curve's, share * mu'(s)
+    # (with the share held fixed), as the traction itself is share * mu(s): the slope of the
+    # one-direction curve survived every test
+    from dataclasses import replace
+
+    from terrain.sim.dynamics import v2_terrain
+    from terrain.sim.forces import contact_forces, contact_layout, velocity_maps
+    from terrain.terramechanics.lateral import SOILS, soil_contact
+
+    w = HUSKY.mass_kg * 9.80665 / 4.0
+    layout = contact_layout(HUSKY.contact_geometry(), HUSKY.mass_kg, 0.0, 1.0)
+    maps = velocity_maps(layout, np.zeros_like(layout.x_m))
+    soil = replace(SOILS["SANDY_LOAM"], combined_shear=True)
+    contact = soil_contact(soil, 0.11, 0.08, 0.1651, 4 * w)
+    ter = v2_terrain(get_terrain("SANDY_LOAM"), contact, w)
+    omega = np.full(2, 0.5 / HUSKY.wheel_radius_m)
+    c = contact_forces(layout, maps, ter, np.array([0.4, 0.2, 0.0]), omega, soil=contact)
+    assert np.all(c.shear_share < 0.9)
+    alone = ter.curve.coefficients(np.abs(c.slip), 0.0)
+    np.testing.assert_allclose(c.mu, alone.mu * c.shear_share, rtol=1e-12)
+    np.testing.assert_allclose(c.dmu_ds_tangent, alone.dmu_ds * c.shear_share, rtol=1e-12)
