@@ -245,7 +245,7 @@ def test_mirrored_commands_give_mirrored_runs(case, v, r, slope):
     np.testing.assert_allclose(right.roll, -left.roll, rtol=0, atol=1e-12)
 
 
-@settings(max_examples=10, deadline=None)
+@settings(max_examples=8, deadline=None)
 @given(case=CASES, v=st.floats(-1.0, 1.0), r=st.floats(-1.0, 1.0))
 def test_the_integrator_converges_at_first_order_as_the_step_halves(case, v, r):
     # linearly implicit Euler: the error of the end state falls by 2 per halving, so with
