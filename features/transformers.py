@@ -89,6 +89,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
     ----------
     feature_names_out_ : numpy.ndarray of str
         Output column names.
+    n_features_in_ : int
+        Channels of the windows seen in ``fit`` (``X.shape[1]``, ``len(channels)``), as
+        scikit-learn's ``Pipeline`` and ``FeatureUnion`` read it from their first step.
     """
 
     def __init__(self, channels: tuple[str, ...] = ALL_CHANNELS, rate_hz: float = 50.0,
@@ -141,9 +144,9 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         WindowFeatures
-            ``self``, with ``feature_names_out_``, ``bands_`` (Hz), ``n_samples_in_``, the
-            FFT helpers ``taper_`` / ``band_weights_`` of that window length and
-            ``layout_`` (the settings they were made with) set.
+            ``self``, with ``feature_names_out_``, ``bands_`` (Hz), ``n_features_in_``
+            (channels), ``n_samples_in_``, the FFT helpers ``taper_`` / ``band_weights_``
+            of that window length and ``layout_`` (the settings they were made with) set.
 
         Raises
         ------
@@ -189,6 +192,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         # constant FFT helpers of this window length (derived from the settings, not the data)
         weights = calculators.band_weights(X.shape[2], self.rate_hz, bands)
         self.bands_ = bands
+        self.n_features_in_ = X.shape[1]
         self.n_samples_in_ = X.shape[2]
         self.taper_ = calculators.hann_taper(self.n_samples_in_)
         self.band_weights_ = weights

@@ -265,6 +265,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     ----------
     feature_names_out_ : numpy.ndarray of str
         Output names, ``<name>`` (whole window) then ``<name>__last<short_s>s``.
+    n_features_in_ : int
+        Channels of the windows seen in ``fit`` (``X.shape[1]``, ``len(channels)``), as
+        scikit-learn's ``Pipeline`` and ``FeatureUnion`` read it from their first step.
     """
 
     def __init__(self, channels: tuple[str, ...] = WHEEL_CHANNELS, rate_hz: float = 10.0,
@@ -302,8 +305,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Returns
         -------
         WheelPhysicsFeatures
-            ``self``, with ``feature_names_out_``, ``n_samples_in_`` and ``layout_`` (the
-            settings checked, which fixed the names) set.
+            ``self``, with ``feature_names_out_``, ``n_features_in_`` (channels),
+            ``n_samples_in_`` and ``layout_`` (the settings checked, which fixed the names)
+            set.
 
         Raises
         ------
@@ -339,6 +343,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         self.feature_names_out_ = np.asarray(
             [f"{f}{suffix}" for suffix, _ in self._scales(X.shape[2])
              for f in PHYSICS_FEATURES], dtype=object)
+        self.n_features_in_ = X.shape[1]
         self.n_samples_in_ = X.shape[2]
         self.layout_ = self._layout()
         return self
