@@ -23,6 +23,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.linear_model import LogisticRegression
 from sklearn.preprocessing import StandardScaler
+from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError
 from terrain.models.compiled import CompiledPipeline
@@ -139,9 +140,12 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
 
         Raises
         ------
+        sklearn.exceptions.NotFittedError
+            ``fit`` has not been called.
         ValueError
             Boolean windows, or values not finite in float32.
         """
+        check_is_fitted(self, "rocket_")     # (was a bare AttributeError before fit)
         return np.asarray(self.rocket_.transform(_signal_windows(X)))
 
 

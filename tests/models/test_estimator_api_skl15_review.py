@@ -213,6 +213,12 @@ def test_shuffled_training_order_keeps_classes_and_most_predictions(kind, data):
         assert np.mean(a.predict(X) == b.predict(X)) >= 0.9
 
 
+def test_minirocket_features_before_fit_are_not_fitted_error(data):
+    # was AttributeError: 'MiniRocketFeatures' object has no attribute 'rocket_'
+    with pytest.raises(NotFittedError):
+        MiniRocketFeatures(n_kernels=84).transform(data[0][:2])
+
+
 #: scikit-learn checks that need no data: parameters, init, repr, clone, tags
 API_CHECKS = ("check_no_attributes_set_in_init", "check_get_params_invariance",
               "check_set_params", "check_estimator_repr",
