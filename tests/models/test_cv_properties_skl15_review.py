@@ -1,0 +1,218 @@
+"""Run-grouped cross-validation as properties over random run layouts (Hypothesis).
+
+No split unit on both sides of a fold, every window tested once per seed, the fold and pooled
+metrics those of scikit-learn on the same predictions, and a seed that reproduces its folds.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, event, given, settings
+from hypothesis import strategies as st
+from sklearn.naive_bayes import GaussianNB
+from sklearn.metrics import (accuracy_score, balanced_accuracy_score, f1_score,
+                             recall_score)
+
+from terrain.errors import ConfigError
+from terrain.models.cv import class_keeping_split, cross_validate, iter_splits
+from terrain.models.metrics import run_majority_accuracy, window_metrics
+
+#: the stratified splitters warn when a class has fewer windows than folds (allowed here)
+pytestmark = pytest.mark.filterwarnings("ignore:The least populated class:UserWarning")
+
+FAST = settings(max_examples=60, deadline=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+
+
+@st.composite
+def layouts(draw, max_classes: int = 4, max_runs: int = 4, max_windows: int = 6,
+            min_classes: int = 1, min_runs: int = 1):
+    """Labels and run ids of windows in a random order: 1-4 classes of 1-4 runs each."""
+    labels, groups = [], []
+    for c in range(draw(st.integers(min_classes, max_classes))):
+        for r in range(draw(st.integers(min_runs, max_runs))):
+            n = draw(st.integers(1, max_windows))
+            labels += [f"T{c}"] * n
+            groups += [f"T{c}/{r:02d}"] * n
+    order = draw(st.permutations(range(len(labels))))
+    return np.asarray(labels)[order], np.asarray(groups, dtype=object)[order]
+
+
+def _splits(protocol, labels, groups, seed, n_splits):
+    try:
+        return list(iter_splits(protocol, labels, groups, seed, n_splits))
+    except ConfigError:     # too few runs or windows for the folds: refused by name
+        return None
+
+
+@FAST
+@given(layouts(), st.sampled_from(["grouped", "loro", "paper"]), st.integers(0, 2 ** 32 - 1),
+       st.integers(2, 6))
+def test_no_unit_on_both_sides_and_every_window_tested_once(layout, protocol, seed, n_splits):
+    labels, groups = layout
+    splits = _splits(protocol, labels, groups, seed, n_splits)
+    if splits is None:
+        return
+    n = len(labels)
+    tested = np.concatenate([test for _, test in splits])
+    assert sorted(tested.tolist()) == list(range(n))         # each window tested once
+    for train, test in splits:
+        assert len(test) > 0
+        assert not set(groups[train]) & set(groups[test])
+        assert sorted(np.concatenate([train, test]).tolist()) == list(range(n))
+    if protocol == "loro":
+        assert [len(set(groups[test])) for _, test in splits] == [1] * len(splits)
+    again = _splits(protocol, labels, groups, seed, n_splits)
+    for (a_tr, a_te), (b_tr, b_te) in zip(splits, again, strict=True):   # seed reproduces
+        np.testing.assert_array_equal(a_tr, b_tr)
+        np.testing.assert_array_equal(a_te, b_te)
+
+
+@FAST
+@given(layouts(), st.integers(0, 2 ** 32 - 1), st.integers(2, 5))
+def test_class_keeping_split_holds_runs_out_whole_and_trains_every_class(layout, seed, k):
+    labels, groups = layout
+    try:
+        fit, held = class_keeping_split(labels, groups, k, seed, "a test", "splits", "none")
+    except ConfigError:
+        return
+    assert len(held) and not set(groups[fit]) & set(groups[held])
+    assert set(labels[fit]) == set(labels)
+    assert sorted(np.concatenate([fit, held]).tolist()) == list(range(len(labels)))
+    again = class_keeping_split(labels, groups, k, seed, "a test", "splits", "none")
+    np.testing.assert_array_equal(again[0], fit)
+
+
+@st.composite
+def predictions(draw):
+    classes = [f"T{i}" for i in range(draw(st.integers(2, 4)))]
+    n = draw(st.integers(1, 30))
+    y_true = draw(st.lists(st.sampled_from(classes), min_size=n, max_size=n))
+    y_pred = draw(st.lists(st.sampled_from(classes), min_size=n, max_size=n))
+    return classes, np.asarray(y_true), np.asarray(y_pred)
+
+
+@settings(max_examples=150, deadline=None)
+@given(predictions())
+def test_window_metrics_are_scikit_learns(case):
+    classes, y_true, y_pred = case
+    m = window_metrics(y_true, y_pred, classes)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")      # (a predicted class absent from the truth)
+        assert m["accuracy"] == pytest.approx(accuracy_score(y_true, y_pred))
+        assert m["balanced_accuracy"] == pytest.approx(balanced_accuracy_score(y_true, y_pred))
+        assert m["macro_f1"] == pytest.approx(f1_score(y_true, y_pred, average="macro",
+                                                       zero_division=0))
+    present = sorted(set(y_true))
+    recalls = recall_score(y_true, y_pred, labels=present, average=None, zero_division=0)
+    assert {k: v for k, v in m.items() if k.startswith("recall_")} == pytest.approx(
+        {f"recall_{c}": r for c, r in zip(present, recalls)})
+
+
+def _vote_reference(y_true, y_pred, groups) -> float:
+    """Per group: the most frequent prediction, ties to the alphabetically first label."""
+    right = []
+    for g in dict.fromkeys(groups):
+        sel = [i for i, h in enumerate(groups) if h == g]
+        counts = pd.Series([y_pred[i] for i in sel]).value_counts()
+        top = sorted(counts.index[counts == counts.max()])[0]
+        right.append(top == y_true[sel[0]])
+    return float(np.mean(right))
+
+
+@settings(max_examples=150, deadline=None)
+@given(predictions(), st.data())
+def test_run_majority_accuracy_equals_a_slow_vote(case, data):
+    _, y_true, y_pred = case
+    groups = np.asarray(data.draw(st.lists(st.sampled_from("abcde"), min_size=len(y_true),
+                                           max_size=len(y_true))))
+    # a group's truth is that of its first window (the runs of one class in practice)
+    first = {g: y_true[list(groups).index(g)] for g in set(groups)}
+    y_true = np.asarray([first[g] for g in groups])
+    assert run_majority_accuracy(y_true, y_pred, groups) == pytest.approx(
+        _vote_reference(y_true, y_pred, groups))
+
+
+def _features(labels, groups, seed: int = 0) -> np.ndarray:
+    """Two noisy features, class-dependent, with a per-run offset."""
+    rng = np.random.default_rng(seed)
+    code = {c: i for i, c in enumerate(sorted(set(labels)))}
+    run = {g: rng.normal(0, 0.5, 2) for g in sorted(set(groups))}
+    return np.asarray([[code[c], -code[c]] + run[g] + rng.normal(0, 0.7, 2)
+                       for c, g in zip(labels, groups)])
+
+
+def _cv(X, labels, groups, seeds, protocol="grouped", n_splits=3):
+    n = len(labels)
+    return cross_validate(lambda s: GaussianNB(), X, labels, groups,
+                          run_ids=groups, t_start_s=np.arange(n, dtype=float),
+                          t_end_s=np.arange(n) + 1.0, protocol=protocol, seeds=seeds,
+                          n_splits=n_splits)
+
+
+@settings(max_examples=12, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(layouts(max_classes=3, max_runs=3, max_windows=5, min_classes=2, min_runs=2),
+       st.sampled_from(["grouped", "loro"]))
+def test_fold_and_pooled_metrics_are_scikit_learns_on_the_reported_predictions(
+        layout, protocol):
+    labels, groups = layout
+    try:
+        report = _cv(_features(labels, groups), labels, groups, seeds=(0, 1),
+                     protocol=protocol)
+    except (ConfigError, ValueError):   # too few runs / a training fold of one class
+        event("refused")
+        return
+    pred = report.predictions
+    for (seed, fold), rows in pred.groupby(["seed", "fold"]):
+        row = report.folds[(report.folds.seed == seed) & (report.folds.fold == fold)].iloc[0]
+        assert row["accuracy"] == pytest.approx(accuracy_score(rows.true, rows.predicted))
+        assert row["n_test"] == len(rows)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            assert row["balanced_accuracy"] == pytest.approx(
+                balanced_accuracy_score(rows.true, rows.predicted))
+        assert row["run_majority_accuracy"] == pytest.approx(
+            _vote_reference(rows.true.to_numpy(), rows.predicted.to_numpy(),
+                            rows.group.to_numpy()))
+        proba = rows[[f"proba_{c}" for c in report.classes]].to_numpy()
+        np.testing.assert_allclose(proba.sum(axis=1), 1.0)
+        np.testing.assert_array_equal(np.asarray(report.classes)[proba.argmax(axis=1)],
+                                      rows.predicted)
+    for seed, rows in pred.groupby("seed"):
+        pooled = report.pooled[report.pooled.seed == seed].iloc[0]
+        assert pooled["macro_f1"] == pytest.approx(
+            f1_score(rows.true, rows.predicted, average="macro", zero_division=0))
+        # every window tested once per seed (t_start_s is the window's index here)
+        assert sorted(rows.t_start_s) == list(range(len(labels)))
+        # a fold trains on the windows of the runs it does not test, and only on them
+        for fold, test in rows.groupby("fold"):
+            n_train = report.folds[(report.folds.seed == seed)
+                                   & (report.folds.fold == fold)].n_train.iloc[0]
+            assert n_train == np.sum(~np.isin(groups, test.group.unique()))
+
+
+def test_the_same_seeds_reproduce_the_report_whatever_their_order():
+    rng = np.random.default_rng(3)
+    labels = np.repeat(["A", "B", "C"], 24)
+    groups = np.asarray([f"{c}/{i // 4}" for i, c in enumerate(labels)], dtype=object)
+    order = rng.permutation(len(labels))
+    labels, groups = labels[order], groups[order]
+    X = _features(labels, groups)
+    a = _cv(X, labels, groups, seeds=(0, 1))
+    b = _cv(X, labels, groups, seeds=(1, 0))
+    cols = [c for c in a.folds.columns if c != "fit_s"]
+    key = ["seed", "fold"]
+    pd.testing.assert_frame_equal(a.folds[cols].sort_values(key).reset_index(drop=True),
+                                  b.folds[cols].sort_values(key).reset_index(drop=True))
+    sort = ["seed", "fold", "t_start_s"]
+    pd.testing.assert_frame_equal(a.predictions.sort_values(sort).reset_index(drop=True),
+                                  b.predictions.sort_values(sort).reset_index(drop=True))
+    # another seed gives other folds (the seed is used)
+    tests = {s: sorted(map(tuple, a.predictions[a.predictions.seed == s]
+                           .groupby("fold").group.unique().map(sorted))) for s in (0, 1)}
+    assert tests[0] != tests[1]
