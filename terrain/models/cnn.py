@@ -44,7 +44,7 @@ from sklearn.utils.validation import (check_array, check_consistent_length, chec
                                       column_or_1d)
 
 from terrain.errors import ConfigError, ShapeError, config_integer, config_positive
-from terrain.models.cv import class_keeping_split
+from terrain.models.cv import class_keeping_split, restored_on_failure
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
 POWER_FLOOR = 1e-10
@@ -244,8 +244,14 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             ``sample_weight`` of another length than ``y``, negative, not finite, or all 0
             (on the training runs: the early-stopping runs are never drawn);
             windows not finite, booleans, not 2-D or 3-D, or empty (0 channels or 0
-            samples).
+            samples). A refused fit leaves the model as it was (unfitted, or its previous
+            fit whole: :func:`~terrain.models.cv.restored_on_failure`).
         """
+        with restored_on_failure(self):
+            return self._fit(X, y, groups, sample_weight)
+
+    def _fit(self, X, y, groups, sample_weight):
+        """:meth:`fit` itself (which puts the previous fit back where this raises)."""
         from skorch import NeuralNetClassifier
         from skorch.callbacks import EarlyStopping
         from skorch.dataset import Dataset

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import inspect
 import time
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from typing import Callable, Iterator, Sequence
 
@@ -512,6 +513,34 @@ def fit_with_groups(estimator, X, y, groups, always: bool = False, **fit_params)
                                or "groups" in inspect.signature(estimator.fit).parameters):
         return estimator.fit(X, y, groups=groups, **fit_params)
     return estimator.fit(X, y, **fit_params)
+
+
+@contextmanager
+def restored_on_failure(model) -> Iterator[None]:
+    """Put ``model``'s attributes back as they were when the block inside raises.
+
+    A ``fit`` that sets some fitted attributes (``classes_``, a scaling) before it refuses
+    its input would otherwise leave them beside the previous fit's (a network trained on
+    other classes now read under the new labels); with this block around it, a refused or
+    interrupted fit leaves the model as it was: unfitted, or its previous fit whole.
+
+    Parameters
+    ----------
+    model : estimator
+        The estimator being fitted (its instance attributes are restored; parameters set
+        before the block are kept as they were set).
+
+    Yields
+    ------
+    None
+    """
+    previous = dict(vars(model))
+    try:
+        yield
+    except BaseException:
+        vars(model).clear()
+        vars(model).update(previous)
+        raise
 
 
 def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
