@@ -25,7 +25,7 @@ from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError, holds_booleans
-from terrain.models.cv import class_keeping_split, fit_with_groups
+from terrain.models.cv import class_keeping_split, fit_with_groups, restored_on_failure
 
 
 def normalised_weights(weights, n_members: int) -> np.ndarray:
@@ -214,8 +214,15 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             holds out every run of a class (:func:`~terrain.models.cv.class_keeping_split`),
             or a ``weight_step`` :func:`simplex_grid` refuses.
         ValueError
-            ``y`` is None.
+            ``y`` is None. A refused fit (here or a member's) leaves the ensemble as it was
+            (unfitted, or its previous fit whole:
+            :func:`~terrain.models.cv.restored_on_failure`).
         """
+        with restored_on_failure(self):
+            return self._fit(X, y, groups)
+
+    def _fit(self, X, y, groups):
+        """:meth:`fit` itself (which puts the previous fit back where this raises)."""
         if y is None:      # scikit-learn's own "y should be a 1d array, got ... shape ()"
             raise ValueError(f"{type(self).__name__} requires y to be passed, but the target "
                              "y is None: give the (n_windows,) labels of the training windows")

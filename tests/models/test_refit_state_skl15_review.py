@@ -103,7 +103,7 @@ def _refused(kind: str):
     return model, X, lambda: model.set_params(weights=(1.0, -1.0)).fit(X2, y2)
 
 
-@pytest.mark.parametrize("kind", ["cnn", "spectrogram"])
+@pytest.mark.parametrize("kind", ["cnn", "spectrogram", "ensemble"])
 def test_a_refused_refit_leaves_the_previous_fit_whole(kind):
     # a refit refused after it had set the new classes and scaling left them beside the
     # previous network: predictions of the old network under the new labels P/Q/R
