@@ -186,6 +186,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         self.lateral_model_ = self._tree().fit(X, y[:, 3])
         self.packed_trees_ = pack_trees(self._estimators(), self.n_features_in_)
         self.std_model_, self.std_scale_, self.calibration_ = None, float("nan"), {}
+        vars(self).pop("packed_std_", None)     # a previous fit's std trees (refit)
         if groups is not None and self.calibration_folds >= 2:
             n_groups = len(np.unique(groups))
             if n_groups >= self.calibration_folds:

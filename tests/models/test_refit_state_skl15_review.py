@@ -6,12 +6,14 @@ from __future__ import annotations
 import pickle
 
 import numpy as np
+import pandas as pd
 import pytest
 from sklearn.base import clone
 
 from terrain.errors import ConfigError
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
+from terrain.slip.learned import SlipRegressor
 
 pytestmark = pytest.mark.filterwarnings("ignore::terrain.errors.DataWarning")
 
@@ -85,6 +87,20 @@ def test_an_ensemble_refit_without_runs_keeps_no_chosen_weights():
     fresh = SoftVotingEnsemble(_members(), inner_splits=3).fit(X, y)
     _assert_same_state(model, fresh)
     assert model.weight_scores_ == {} and model.validation_groups_.size == 0
+
+
+def test_a_slip_model_refit_keeps_nothing_of_a_calibrated_named_fit():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(240, 3))
+    y = np.column_stack([0.1 * X[:, 0], 0.1 * X[:, 1], 1 + 0.1 * X[:, 2], 0.01 * X[:, 0]])
+    groups = np.repeat(np.arange(12), 20)
+    settings = dict(max_iter=5, min_samples_leaf=5)
+    model = SlipRegressor(**settings).fit(pd.DataFrame(X, columns=["a", "b", "c"]), y, groups)
+    assert model.calibration_ and hasattr(model, "feature_names_in_")
+    model.fit(X, y)
+    fresh = SlipRegressor(**settings).fit(X, y)
+    _assert_same_state(model, fresh)
+    assert np.isnan(model.predict_std(X)).all()
 
 
 def _refused(kind: str):
