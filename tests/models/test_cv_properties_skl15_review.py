@@ -216,3 +216,21 @@ def test_the_same_seeds_reproduce_the_report_whatever_their_order():
     tests = {s: sorted(map(tuple, a.predictions[a.predictions.seed == s]
                            .groupby("fold").group.unique().map(sorted))) for s in (0, 1)}
     assert tests[0] != tests[1]
+
+
+def test_cross_validate_fits_copies_never_the_factorys_estimator():
+    # a factory handing out one shared estimator: every fold fits its own clone, and the
+    # caller's object stays unfitted (no fold's fit left in it)
+    from sklearn.exceptions import NotFittedError
+    from sklearn.utils.validation import check_is_fitted
+
+    labels = np.repeat(["A", "B"], 12)
+    groups = np.asarray([f"{c}/{i // 3}" for i, c in enumerate(labels)], dtype=object)
+    shared = GaussianNB()
+    n = len(labels)
+    report = cross_validate(lambda s: shared, _features(labels, groups), labels, groups,
+                            run_ids=groups, t_start_s=np.arange(n, dtype=float),
+                            t_end_s=np.arange(n) + 1.0, seeds=(0,), n_splits=2)
+    assert len(report.folds) == 2
+    with pytest.raises(NotFittedError):
+        check_is_fitted(shared)

@@ -259,3 +259,33 @@ NOT_TABULAR = {
 @pytest.mark.parametrize("kind", list(NOT_TABULAR))
 def test_check_estimator_does_not_apply(kind):
     pytest.skip(NOT_TABULAR[kind])
+
+
+class _MeanWindowClassifier:
+    """A 3-D-window classifier that records no ``n_features_in_`` (a plain duck type)."""
+
+    def get_params(self, deep=True):
+        return {}
+
+    def set_params(self, **params):
+        return self
+
+    def fit(self, X, y, sample_weight=None):
+        from sklearn.naive_bayes import GaussianNB
+
+        self.model_ = GaussianNB().fit(X.mean(axis=2), y, sample_weight=sample_weight)
+        self.classes_ = self.model_.classes_
+        return self
+
+    def predict_proba(self, X):
+        return self.model_.predict_proba(X.mean(axis=2))
+
+    def predict(self, X):
+        return self.model_.predict(X.mean(axis=2))
+
+
+def test_run_balanced_records_the_channels_when_its_classifier_does_not(data):
+    X, y, groups = data
+    model = run_balanced(_MeanWindowClassifier()).fit(X, y, groups=groups)
+    assert not hasattr(model.estimator_, "n_features_in_")
+    assert model.n_features_in_ == len(CHANNELS)     # X.shape[1], not the samples
