@@ -234,3 +234,22 @@ def test_cross_validate_fits_copies_never_the_factorys_estimator():
     assert len(report.folds) == 2
     with pytest.raises(NotFittedError):
         check_is_fitted(shared)
+
+
+def test_terrain_cv_pooled_recall_is_scikit_learns_over_all_seeds_predictions():
+    # pipelines/cv.py's per-class recall of the confusion summed over seeds is the recall of
+    # every seed's out-of-fold predictions taken together
+    from pipelines.cv import pooled_recall
+
+    rng = np.random.default_rng(4)
+    labels = np.repeat(["A", "B", "C"], 12)
+    groups = np.asarray([f"{c}/{i // 3}" for i, c in enumerate(labels)], dtype=object)
+    X = _features(labels, groups) + rng.normal(0, 1.0, (len(labels), 2))
+    report = _cv(X, labels, groups, seeds=(0, 1, 2))
+    pred = report.predictions
+    expected = recall_score(pred.true, pred.predicted, labels=report.classes, average=None)
+    assert pooled_recall(report.confusion) == pytest.approx(
+        dict(zip(report.classes, expected)))
+    summary = report.summary()
+    assert summary["accuracy"]["mean"] == pytest.approx(report.folds.accuracy.mean())
+    assert summary["accuracy"]["n_folds"] == 9
