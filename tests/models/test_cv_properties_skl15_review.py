@@ -253,3 +253,50 @@ def test_terrain_cv_pooled_recall_is_scikit_learns_over_all_seeds_predictions():
     summary = report.summary()
     assert summary["accuracy"]["mean"] == pytest.approx(report.folds.accuracy.mean())
     assert summary["accuracy"]["n_folds"] == 9
+
+
+@FAST
+@given(layouts(max_classes=3, max_runs=3, max_windows=8))
+def test_within_class_run_weights_give_every_run_of_a_class_the_same_total(layout):
+    from terrain.models.weighting import within_class_run_weights
+
+    labels, groups = layout
+    w = within_class_run_weights(labels, groups)
+    assert np.all(w > 0)
+    for c in set(labels):
+        in_class = labels == c
+        runs = sorted(set(groups[in_class]))
+        assert w[in_class].mean() == pytest.approx(1.0)
+        for r in runs:
+            assert w[in_class & (groups == r)].sum() == pytest.approx(
+                in_class.sum() / len(runs))
+
+
+@FAST
+@given(st.lists(st.tuples(st.integers(3, 30), st.booleans()), min_size=1, max_size=4),
+       st.integers(1, 4), st.integers(2, 5), st.data())
+def test_time_blocks_of_a_single_run_class_share_no_sample_after_the_purge(runs, hop, k, data):
+    # windows of 4 time steps every `hop` steps; a class of one run is cut into k blocks,
+    # and windows straddling a block boundary are dropped: no kept window of one block
+    # overlaps a kept window of another block of its run
+    from terrain.models.cv import purge_block_overlaps, split_single_run_classes
+
+    labels, run_ids, start = [], [], []
+    for i, (n, single) in enumerate(runs):
+        cls = f"S{i}" if single else "multi"
+        labels += [cls] * n
+        run_ids += [f"run{i}"] * n
+        start += [hop * j * 0.1 for j in range(n)]
+    order = np.asarray(data.draw(st.permutations(range(len(labels)))))
+    labels, run_ids = np.asarray(labels)[order], np.asarray(run_ids, dtype=object)[order]
+    start = np.asarray(start)[order]
+    end = start + 0.4
+    units, split = split_single_run_classes(labels, run_ids, start, k)
+    keep = purge_block_overlaps(units, run_ids, start, end)
+    for c in split:                     # contiguous, ordered blocks of at most k
+        sel = labels == c
+        assert len(set(units[sel])) == min(k, sel.sum())
+    for i in np.flatnonzero(keep):
+        for j in np.flatnonzero(keep):
+            if run_ids[i] == run_ids[j] and units[i] != units[j]:
+                assert end[i] <= start[j] + 1e-9 or end[j] <= start[i] + 1e-9
