@@ -300,3 +300,39 @@ def test_time_blocks_of_a_single_run_class_share_no_sample_after_the_purge(runs,
         for j in np.flatnonzero(keep):
             if run_ids[i] == run_ids[j] and units[i] != units[j]:
                 assert end[i] <= start[j] + 1e-9 or end[j] <= start[i] + 1e-9
+
+
+@FAST
+@given(st.lists(st.tuples(st.integers(3, 20), st.booleans()), min_size=1, max_size=3),
+       st.integers(2, 4), st.integers(1, 3), st.integers(2, 4))
+def test_a_denser_training_window_never_shares_a_sample_with_another_units_window(
+        runs, hop, train_hop, k):
+    # evaluation windows (4 steps long, every `hop` steps) define the units; a denser
+    # training cut of the same runs (every `train_hop` steps) trains a fold only through
+    # its unit: none of its windows overlaps an evaluation window of another unit
+    from terrain.models.cv import (purge_block_overlaps, split_single_run_classes,
+                                   training_units)
+
+    labels, run_ids, start, t_run, t_start = [], [], [], [], []
+    for i, (n, single) in enumerate(runs):
+        labels += [f"S{i}" if single else "multi"] * n
+        run_ids += [f"run{i}"] * n
+        start += [0.1 * hop * j for j in range(n)]
+        m = (hop * (n - 1)) // train_hop + 1
+        t_run += [f"run{i}"] * m
+        t_start += [0.1 * train_hop * j for j in range(m)]
+    labels, run_ids = np.asarray(labels), np.asarray(run_ids, dtype=object)
+    start, t_start = np.asarray(start), np.asarray(t_start)
+    t_run = np.asarray(t_run, dtype=object)
+    units, _ = split_single_run_classes(labels, run_ids, start, k)
+    keep = purge_block_overlaps(units, run_ids, start, start + 0.4)
+    run_ids, start, units = run_ids[keep], start[keep], units[keep]
+    dense = training_units(run_ids, start, start + 0.4, units, t_run, t_start, t_start + 0.4)
+    for i, u in enumerate(dense):
+        if u is None:
+            continue
+        other = (run_ids == t_run[i]) & (units != u)
+        overlap = ((start[other] < t_start[i] + 0.4 - 1e-9)
+                   & (start[other] + 0.4 > t_start[i] + 1e-9))
+        assert not overlap.any()
+        assert u in set(units[run_ids == t_run[i]])
