@@ -367,6 +367,20 @@ class StreamService:
         until = min(resume, newest - self.config.max_backlog_s)
         return max(0, int(np.ceil((until - t) / self.config.hop_s)))
 
+    def _holds_gap(self, ts: np.ndarray, step: float, first: float) -> bool:
+        """Whether a stream's samples ``ts`` read for a window whose first grid point is
+        ``first`` hold a gap: a step ending after ``first`` over ``gap_factor`` x the
+        stream's usual ``step``. Past a stream's first samples the median of its one or two
+        known steps is the gap itself: the smallest step read stands for the usual one when
+        fewer than three are read, and two samples read (one before the window, one after
+        it: none in it) are one gap."""
+        if len(ts) == 2:
+            return True
+        steps = np.diff(ts)
+        if len(steps) < 3:
+            step = min(step, float(steps.min()))
+        return bool((steps[ts[1:] > first] > self.config.gap_factor * step).any())
+
     def _window(self, t: float) -> tuple[np.ndarray | None, float, set[str]]:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
         w = self.model.window
@@ -401,8 +415,7 @@ class StreamService:
             return None, age, {"short"}
         # a gap counts where it holds a grid point of the window: a step that ends at or
         # before the first point (read for the look-back margin) leaves the window whole
-        gap = any((np.diff(ts)[ts[1:] > tail[0]] > self.config.gap_factor * step).any()
-                  for ts, step in zip(times, steps))
+        gap = any(self._holds_gap(ts, step, tail[0]) for ts, step in zip(times, steps))
         aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,
                                steps).T
         if self._wheel_cols is not None:

@@ -2,16 +2,10 @@
 
 Request bodies in the formats the README documents (CSV, JSON ``dataframe_split`` and
 ``dataframe_records``; long format with a ``stream`` column, wide with ``<stream>_t_s``)
-go through the request guard (:class:`terrain.serving.http.RequestGuard`) and MLflow's own
-scoring app, in-process, as ``terrain serve`` builds them:
-
-* with random corruptions (cells, columns, rows, clocks; bytes: BOM, cuts, CRLF, NUL,
-  UTF-16, content types) the answer is decisions or a 4xx whose one-line message starts
-  with a :mod:`terrain.errors` class, never a 500 or a bare Python or pandas exception;
-* the rows' interleaving across streams, the columns' order and the body format do not
-  change the decisions;
-* every decision due is in the answer, a dropped one with its reason; the wide format
-  gives the long one's answer.
+with random corruptions go through the request guard's body checks
+(:func:`terrain.serving.body.body_refusal`) and MLflow's own ``/invocations`` handler: the
+answer is either decisions or a 4xx whose one-line message starts with a
+:mod:`terrain.errors` class, never a 500 or a bare Python or pandas exception.
 """
 
 from __future__ import annotations
@@ -310,8 +304,8 @@ def _wide(frame: pd.DataFrame) -> pd.DataFrame:
 def test_a_gap_or_a_cut_keeps_every_due_decision_in_the_answer(guarded_all, two_streams,
                                                                data, fmt):
     """Every decision due (one per hop from one window after the streams start) is a row
-    of the answer, a dropped one where samples are missing (but for samples held when the
-    request ended, which every window names): the wide format and the long one agree."""
+    of the answer, a dropped one (``gap``) where samples are missing: the wide format and
+    the long one agree."""
     frame = two_streams
     for _ in range(data.draw(st.integers(0, 2))):
         stream = data.draw(st.sampled_from(["imu", "wheels"]))
@@ -337,5 +331,42 @@ def test_a_gap_or_a_cut_keeps_every_due_decision_in_the_answer(guarded_all, two_
     np.testing.assert_allclose(got["t_s"], due, atol=0.03)   # the 50 Hz model's grid
     flags = [set(f.split("|")) for f in got["flags"]]
     assert got["dropped"].tolist() == [bool(f & {"gap", "short"}) for f in flags]
+    # the readers' gap rule on the whole request (a step over 3 x the stream's median),
+    # where it is clear-cut: a window of [end - 2 s, end) that a step over 3.05 x crosses
+    # by 0.05 s is a gap (or short, decided before the hole's end came), one that no step
+    # over 2.95 x comes within 0.05 s of is not
+    holes: dict[float, list] = {3.05: [], 2.95: []}
+    for _, part in frame.groupby("stream"):
+        t = part["t_s"].to_numpy()
+        step = np.diff(t)
+        for factor, found in holes.items():
+            found += [(a, b) for a, b in zip(t[:-1], t[1:])
+                      if b - a > factor * np.median(step)]
+    for t, age, f in zip(got["t_s"], got["window_age_s"], flags):
+        end = t - (age or 0.0)   # the window ends window_age_s before its decision
+        if any(b > end - 1.95 and a < end - 0.05 for a, b in holes[3.05]):
+            assert f & {"gap", "short"}, (t, f, holes)
+        elif not any(b > end - 2.05 and a < end + 0.05 for a, b in holes[2.95]) and t > 2.1:
+            assert "gap" not in f, (t, f, holes)
     if len(frame) == len(two_streams):
         assert not got["dropped"].any()
+
+
+@pytest.mark.parametrize("stream, kept, resume, decisions", [
+    ("imu", 1, 305, [2.5, 3.0, 3.5, 4.0, 4.5]), ("imu", 2, 305, [2.5, 3.0, 3.5, 4.0, 4.5]),
+    ("wheels", 1, 12, [2.0, 2.5, 3.0, 3.5])])
+def test_a_window_across_a_hole_after_a_streams_first_samples_is_a_gap(
+        guarded_all, two_streams, stream, kept, resume, decisions):
+    """A stream sends ``kept`` sample(s) from 0 s, then nothing until its sample
+    ``resume`` (the IMU at 3.05 s, the 6.5 Hz wheels at 1.85 s). The first windows across
+    the hole were classified (no flag, not dropped) on values drawn as a straight line
+    over it: the stream's usual step was the median of the one or two steps known through
+    the window, the hole itself. Every window starting before the hole's end is a gap."""
+    rows = np.flatnonzero(two_streams["stream"].to_numpy() == stream)
+    frame = two_streams.drop(index=two_streams.index[rows[kept:resume]])
+    status, doc = answer(guarded_all, *encode(frame.reset_index(drop=True), "split"))
+    assert status == 200, doc
+    got = pd.DataFrame(doc["predictions"]).set_index("t_s")
+    assert got.loc[decisions, "dropped"].all(), got[["flags", "dropped"]]
+    assert (got.loc[decisions, "flags"] == "gap").all()
+    assert not got.drop(index=decisions)["flags"].str.contains("gap").any()
