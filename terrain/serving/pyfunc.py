@@ -32,6 +32,7 @@ import contextlib
 import json
 import os
 import tempfile
+from collections.abc import Hashable
 from pathlib import Path
 from urllib.parse import urlparse
 from urllib.request import url2pathname
@@ -274,8 +275,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         the run and row.
     DataFormatError
         A median sample rate more than 1 % off ``config.rate_hz``, a sample without a
-        run (``run`` missing: names the first row), or two runs given as values that read
-        alike (``1`` and ``"1"``: the answer would name both ``"1"``).
+        run (``run`` missing: names the first row), a run named by a list or a mapping
+        (names the first row), or two runs given as values that read alike (``1`` and
+        ``"1"``: the answer would name both ``"1"``).
     """
     cols = [RUN, TIME] + input_channels(channels)
     missing = [c for c in cols if c not in samples.columns]
@@ -294,6 +296,14 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         row = int(np.flatnonzero(no_run)[0])
         raise DataFormatError(f"{int(no_run.sum())} sample(s) without a run (every sample "
                               "names the run it belongs to)", "model input", RUN, row)
+    # a run is named by a value (text, a number); a list or a mapping (JSON) cannot be
+    # grouped on: pandas failed with Python's bare "unhashable type"
+    odd = np.flatnonzero([not isinstance(r, Hashable) for r in samples[RUN].to_numpy()])
+    if odd.size:
+        row = int(odd[0])
+        raise DataFormatError(f"{odd.size} sample(s) whose run name is a "
+                              f"{type(samples[RUN].iat[row]).__name__}, not text or a number",
+                              "model input", RUN, row)
     # the answer names a run str(run): 1 and "1" are two runs to groupby, one name there
     alike = duplicated([str(r) for r in pd.unique(samples[RUN])])
     if alike:
