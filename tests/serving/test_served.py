@@ -1183,6 +1183,68 @@ def test_bounded_connections_protocol_takes_a_positive_bound():
             bounded_connections_protocol(bad)
 
 
+def _bad_bodies(frame: pd.DataFrame) -> list[tuple[str, bytes, str, str, str]]:
+    """(case, body, content type, error class, words of the message) of bad requests a
+    client may send, in the formats the README documents (srv15 review)."""
+    csv = frame.to_csv(index=False).encode()
+    header, *lines = csv.split(b"\n")
+    nan_t = frame.astype({"t_s": object})
+    nan_t.loc[4, "t_s"] = None
+    records = json.dumps({"dataframe_records": json.loads(frame.to_json(orient="records"))})
+    return [
+        ("duplicated stamp csv", _dup(frame).to_csv(index=False).encode(), "text/csv",
+         "TimestampError", "duplicated timestamp"),
+        ("swapped rows records", json.dumps({"dataframe_records": json.loads(
+            _swap(frame).to_json(orient="records"))}).encode(), "application/json",
+         "TimestampError", "decreasing timestamp"),
+        ("empty stamp csv", nan_t.to_csv(index=False).encode(), "text/csv",
+         "NonFiniteError", "'t_s'"),
+        ("text cell split", _body(_text(frame)).encode(), "application/json",
+         "NonNumericError", "'fast'"),
+        ("stamps in ms csv", _ms(frame).to_csv(index=False).encode(), "text/csv",
+         "UnitError", "milliseconds"),
+        ("missing channel csv", frame.drop(columns="cur_r").to_csv(index=False).encode(),
+         "text/csv", "MissingColumnError", "cur_r"),
+        ("misspelt stream", frame.assign(stream="wheel").to_csv(index=False).encode(),
+         "text/csv", "DataFormatError", "unknown stream 'wheel'"),
+        ("too short", frame.iloc[:5].to_csv(index=False).encode(), "text/csv",
+         "DataFormatError", "too short"),
+        ("header only", header + b"\n", "text/csv", "MissingColumnError", "stream=wheels"),
+        ("bom and header only", b"\xef\xbb\xbf" + header + b"\n", "text/csv",
+         "MissingColumnError", "stream=wheels"),
+        ("truncated last line", b"\n".join([header, *lines[:30], lines[30][:9]]),
+         "text/csv", "RaggedRowError", "line 32"),
+        ("truncated json", records.encode()[:-40], "application/json", "DataFormatError",
+         "not valid JSON"),
+        ("utf-16 csv", csv.decode().encode("utf-16"), "text/csv", "EncodingError", "UTF-16"),
+        ("csv sent as json", csv, "application/json", "DataFormatError", "not valid JSON"),
+        ("unicode column twice", csv.replace(b"cur_r", b"\xc3\xa9", 1).replace(
+            b"cur_l", b"\xc3\xa9", 1), "text/csv", "DataFormatError",
+         "duplicated column name(s) ['\u00e9']"),
+    ]
+
+
+def test_real_server_answers_bad_requests_typed_and_keeps_answering(server, request_frame):
+    """Every bad request of :func:`_bad_bodies` is a 400 with the project's one-line typed
+    message naming what is wrong, and the server answers the next request (/ping after
+    each, the good request at the end); a column with a non-ASCII name is named as sent."""
+    proc, base, _ = server
+    start = time.monotonic()
+    for case, body, content_type, error, words in _bad_bodies(request_frame):
+        status, answer = _raw(base, body, content_type)
+        assert status == 400, (case, answer)
+        _one_line_typed(answer, error)
+        assert words in answer["message"], (case, answer["message"])
+        with urllib.request.urlopen(base + "/ping", timeout=20) as res:
+            assert res.status == 200, case
+    extra = request_frame.assign(**{"température": 1.0})
+    status, answer = _raw(base, extra.to_csv(index=False).encode(), "text/csv")
+    assert status == 200, answer
+    got = pd.DataFrame(answer["predictions"])
+    assert (got["ignored_columns"] == "['température']").all()
+    assert proc.poll() is None and time.monotonic() - start < 20
+
+
 def test_stopping_the_server_removes_its_wrapped_model(server):
     """SIGTERM (what ``kill`` and service managers send) stops the server gracefully and
     removes the temporary wrapped model. Last test of the module: it stops the server."""
