@@ -370,3 +370,34 @@ def test_a_window_across_a_hole_after_a_streams_first_samples_is_a_gap(
     assert got.loc[decisions, "dropped"].all(), got[["flags", "dropped"]]
     assert (got.loc[decisions, "flags"] == "gap").all()
     assert not got.drop(index=decisions)["flags"].str.contains("gap").any()
+
+
+@pytest.mark.parametrize("channel", ["vel_l", "vel_r"])
+def test_an_isolated_inf_wheel_speed_is_a_non_finite_sample_not_km_h(guarded, base, channel):
+    """One inf among the wheel speeds (a fuzzed JSON ``Infinity``) refused the request,
+    "UnitError: rule wheel_speed_units: 99th-percentile wheel speed inf ... km/h": the
+    run-level rule took the inf into its percentile; as a NaN, it is a non-finite sample
+    the windows holding it are flagged for."""
+    answers = []
+    for bad in (np.nan, np.inf):
+        frame = base.copy()
+        frame.loc[10, channel] = bad
+        status, doc = answer(guarded, frame.to_csv(index=False).encode(), "text/csv")
+        assert status == 200, doc
+        answers.append(doc)
+    assert answers[1] == answers[0]
+    assert "non_finite" in "|".join(pd.DataFrame(answers[1]["predictions"])["flags"])
+
+
+def test_wheel_speeds_in_km_h_are_refused_with_a_missing_sample_among_them(guarded, base):
+    """Wheel speeds in km/h are refused (rule wheel_speed_units) with or without an
+    isolated missing sample: a NaN among them made the rule's percentile NaN, and the
+    request passed it as m/s."""
+    kmh = base.assign(vel_l=3.6 * base["vel_l"] + 3.0, vel_r=3.6 * base["vel_r"] + 3.0)
+    for missing in (False, True):
+        frame = kmh.copy()
+        if missing:
+            frame.loc[10, "vel_l"] = np.nan
+        status, doc = answer(guarded, frame.to_csv(index=False).encode(), "text/csv")
+        assert status == 400, (missing, doc)
+        assert doc["message"].startswith("UnitError: rule wheel_speed_units"), doc
