@@ -356,3 +356,30 @@ def test_the_audit_report_does_not_depend_on_run_order_or_names():
     renamed = [replace(f, run_id=f"z{f.run_id[::-1]}", group=f"z{f.group[::-1]}")
                for f in shuffled]
     assert _report_summary(renamed) == a
+
+
+def _mirrored(frame):
+    """The same drive seen with left and right swapped: every turn and yaw rate changes
+    sign, the two motors change places."""
+    return replace(frame, commanded_yaw_rate=-frame.commanded_yaw_rate, wz=-frame.wz,
+                   sim_wz=-frame.sim_wz, imu_wz=-frame.imu_wz, ay=-frame.ay,
+                   sim_ay=-frame.sim_ay, cur=frame.cur[:, ::-1].copy(),
+                   sim_cur=frame.sim_cur[:, ::-1].copy())
+
+
+@PROPS
+@given(seed=st.integers(0, 10_000), name=st.sampled_from(sorted(PLANTED)))
+def test_a_mirrored_drive_names_the_same_effects_with_mirrored_sizes(seed, name):
+    """Only the bias of the gyro and the right-minus-left current offset change sign."""
+    lo, hi, _ = PLANTED[name]
+    group = EFFECT_VOCABULARY[name].group
+    frames = _frames(seed, name, 0.5 * (lo + hi))
+    a = select_group([[f] for f in frames], group, "ASPHALT", NO_CI)
+    b = select_group([[_mirrored(f)] for f in frames], group, "ASPHALT", NO_CI)
+    assert b.selected == a.selected == (name,)
+    for ea, eb in zip(a.effects, b.effects):
+        sign = -1.0 if ea.name in ("gyro_bias", "current_offset") else 1.0
+        assert eb.params == pytest.approx({k: sign * v for k, v in ea.params.items()},
+                                          rel=1e-6, abs=1e-9), ea.name
+        if ea.heldout_gain is not None:
+            assert eb.heldout_gain == pytest.approx(ea.heldout_gain, rel=1e-6, abs=1e-9)
