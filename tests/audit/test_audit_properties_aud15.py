@@ -412,3 +412,37 @@ def test_a_held_out_segments_gyro_does_not_move_its_folds_training_data(tmp_path
     after = segments(moved, "b")
     for b, a in zip(before[:3], after[:3]):
         np.testing.assert_array_equal(a.wz[a.score_imu], b.wz[b.score_imu])
+
+
+def test_replay_rmse_is_the_default_physics_replay(tmp_path):
+    """The ``replay_rmse`` of the JSON ``signals`` records (read by independent checks) is
+    the error of the simulator's default physics (v1), with the audit's and the command's
+    default settings alike."""
+    import argparse
+
+    from audit_helpers import simulated_streams, write_signal_files
+    from pipelines.audit import add_arguments
+    from terrain.audit.replay import ReplaySettings, replay_run
+    from terrain.io.measured import read_runs_dir
+    from terrain.sim.forces import DEFAULT_PHYSICS
+
+    assert DEFAULT_PHYSICS == "v1"
+    parser = argparse.ArgumentParser()
+    add_arguments(parser)
+    assert parser.parse_args(["--json", str(tmp_path / "a.json")]).physics == DEFAULT_PHYSICS
+    assert AuditSettings().replay.physics == DEFAULT_PHYSICS
+    streams = simulated_streams(seeds=(3,), duration_s=20.0, scenario="orchard")
+    for i, (imu, pro) in enumerate(streams):
+        write_signal_files(tmp_path / "runs", "SNOW", i, imu, pro)
+    runs = read_runs_dir(tmp_path / "runs", progress=False)
+    result = run_audit(runs, AuditSettings(selection=replace(NO_CI, n_bootstrap=10)))
+    records = {(s["signal"], s["terrain"]): s for s in to_dict(result)["signals"]}
+    meas, pred = [], []
+    for run, frame in zip(runs, result.frames):
+        rep = replay_run(run, ReplaySettings(physics="v1"))
+        meas.append(frame.cur[frame.score_cur, 0])
+        pred.append(rep.cur[frame.score_cur, 0])
+    meas, pred = np.concatenate(meas), np.concatenate(pred)
+    rec = records[("cur_l", "SNOW")]
+    assert rec["n"] == meas.size
+    assert rec["replay_rmse"] == pytest.approx(np.sqrt(np.mean((meas - pred) ** 2)), abs=1e-5)
