@@ -297,6 +297,10 @@ def test_the_signals_records_keep_their_fields_and_their_meaning(seed, name):
         assert rec["n"] == meas.size
         assert row["replay_rmse"] == pytest.approx(np.sqrt(np.mean((meas - rep) ** 2)),
                                                    rel=1e-12)
+        if rec["signal"] == "wz":             # the yaw group's held-out predictions
+            yaw = result.groups[(rec["terrain"], "yaw")]
+            assert row["extended_rmse"] == pytest.approx(yaw.final_rmse, rel=1e-12)
+            assert row["replay_rmse"] == pytest.approx(yaw.baseline_rmse, rel=1e-12)
         if row["replay_rmse"] > 0:
             assert row["extended_gain"] == pytest.approx(
                 1.0 - row["extended_rmse"] / row["replay_rmse"], rel=1e-12)
