@@ -76,7 +76,8 @@ class AuditSettings:
     Raises
     ------
     ConfigError
-        A sweep factor that is not a finite number >= 0.
+        A sweep factor that is not a finite number >= 0, or a replay output cut-off
+        (``replay.output_cutoff_hz``) other than the IMU's (``frames.imu_cutoff_hz``).
     """
 
     replay: ReplaySettings = field(default_factory=ReplaySettings)
@@ -94,11 +95,19 @@ class AuditSettings:
         Raises
         ------
         ConfigError
-            A factor NaN, infinite, negative or not a number, or ``pooled`` not ``True`` or
-            ``False`` (the text ``"no"`` of a config file fitted the pooled terrain).
+            A factor NaN, infinite, negative or not a number, ``pooled`` not ``True`` or
+            ``False`` (the text ``"no"`` of a config file fitted the pooled terrain), or
+            the replay's predictions and the IMU low-passed at different cut-offs (the
+            report says they share one: a replay at 0.5 Hz against a gyro at 2 Hz put the
+            gyro's 0.5-2 Hz band in the replay's yaw-rate error).
         """
         _check_factors("AuditSettings.sweep_factors", self.sweep_factors)
         config_flags("AuditSettings", pooled=self.pooled)
+        if float(self.replay.output_cutoff_hz) != float(self.frames.imu_cutoff_hz):
+            raise ConfigError(
+                f"AuditSettings: replay.output_cutoff_hz ({self.replay.output_cutoff_hz:g} Hz) "
+                f"and frames.imu_cutoff_hz ({self.frames.imu_cutoff_hz:g} Hz) must be equal: "
+                "predictions and IMU are compared at the same bandwidth")
 
     def as_params(self) -> dict[str, object]:
         """Flat ``section.name -> value`` mapping (for MLflow parameters and the report).
