@@ -2,9 +2,14 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
+import numpy as np
 import pytest
 
+from audit_helpers import synthetic_frame
 from terrain.audit import AuditSettings, FrameSettings, ReplaySettings
+from terrain.audit.ceiling import yaw_rate_ceiling_samples
 from terrain.audit.report import BASELINE
 from terrain.errors import ConfigError
 
@@ -23,3 +28,14 @@ def test_the_predictions_and_the_imu_are_low_passed_at_one_cut_off():
                          frames=FrameSettings(imu_cutoff_hz=1.0))
     assert same.replay.output_cutoff_hz == same.frames.imu_cutoff_hz == 1.0
     assert AuditSettings().replay.output_cutoff_hz == AuditSettings().frames.imu_cutoff_hz
+
+
+def test_a_dead_gyro_does_not_turn_in_the_ceiling():
+    # a gyro reading exactly 0 in every turn gives 1 / chi = 0: the vehicle does not turn
+    # the commanded way (chi inf), and the steady family predicts no yaw there
+    f = synthetic_frame("r0", noise=0.0)
+    dead = replace(f, wz=np.zeros(f.n), imu_wz=np.zeros(f.n))
+    tab = yaw_rate_ceiling_samples([dead])
+    assert tab.attrs["chi_shared"]["curve"] == tab.attrs["chi_shared"]["spin"] == np.inf
+    assert np.isnan(tab.attrs["chi_shared"]["straight"])          # no turn commanded there
+    assert (tab.shared == 0.0).all() and (tab.per_run == 0.0).all()
