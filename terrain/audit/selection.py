@@ -379,7 +379,10 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     a dead one ``chi = NaN``) describes a sensor, not a wider track; and tyre scrub only moves
     the sides' ICRs outward, so ``chi < 1`` (the robot turning faster than ideal differential
     drive, seed 000 eqs. 2-3: a wrong wheel radius or track width, or a gyro scale error) is
-    no ICR expansion either (the simulator plants ``chi`` in [1, 20]).
+    no ICR expansion either (the simulator plants ``chi`` in [1, 20]). For the same reason
+    ``immobilised`` with the kinematic mobile model must not turn its mobile samples faster
+    than ideal differential drive (``chi_mobile < 1``): its gain would be the correction of
+    that error, credited to digging in.
 
     Parameters
     ----------
@@ -402,6 +405,10 @@ def unphysical(name: str, params: GroupParams) -> str | None:
     if name == "icr_expansion" and params.chi < 1.0:
         return (f"chi = {params.chi:.3g} < 1: the robot turns faster than ideal differential "
                 "drive, which no ICR expansion does (wheel radius, track width or gyro scale)")
+    if name == "immobilised" and params.kinematic and params.chi < 1.0:
+        return (f"mobile chi = {params.chi:.3g} < 1: the robot turns faster than ideal "
+                "differential drive when it moves (wheel radius, track width or gyro scale), "
+                "which digging in does not explain")
     return None
 
 

@@ -39,3 +39,29 @@ def test_a_dead_gyro_does_not_turn_in_the_ceiling():
     assert tab.attrs["chi_shared"]["curve"] == tab.attrs["chi_shared"]["spin"] == np.inf
     assert np.isnan(tab.attrs["chi_shared"]["straight"])          # no turn commanded there
     assert (tab.shared == 0.0).all() and (tab.per_run == 0.0).all()
+
+
+def test_a_dug_in_robot_that_turns_faster_than_ideal_is_not_named_immobilised():
+    # the gyro reads 2x the commanded turn (a gyro scale or track-width error: chi 0.5,
+    # which no ICR expansion gives) and shows nothing for 30 % of every turn; with the
+    # kinematic mobile model (v_R - v_L) / (chi_m B), chi_m = 0.5 < 1, 'immobilised' took the
+    # gain of correcting the scale error and was named, where icr_expansion with the same
+    # chi is refused as unphysical
+    from test_audit_properties_aud15 import NO_CI, _frames, plant
+    from terrain.audit.selection import select_group
+
+    rng = np.random.default_rng(0)
+    frames = [plant(plant(f, "icr_expansion", 0.5, rng), "immobilised", 0.3, rng)
+              for f in _frames(1)]
+    res = select_group([[f] for f in frames], "yaw", "ASPHALT", NO_CI)
+    e = {x.name: x for x in res.effects}
+    assert e["immobilised"].details["mobile_model"] == "kinematic"
+    assert e["immobilised"].details["chi_mobile"] == pytest.approx(0.5, abs=0.01)
+    assert "unphysical" in e["immobilised"].details
+    assert "chi" in e["immobilised"].details["unphysical"]
+    assert res.selected == ()
+    # with chi_m > 1 the same dug-in turns are named
+    frames = [plant(plant(f, "icr_expansion", 1.8, rng), "immobilised", 0.3, rng)
+              for f in _frames(1)]
+    assert select_group([[f] for f in frames], "yaw", "ASPHALT", NO_CI).selected == (
+        "immobilised",)
