@@ -65,3 +65,24 @@ def test_a_dug_in_robot_that_turns_faster_than_ideal_is_not_named_immobilised():
               for f in _frames(1)]
     assert select_group([[f] for f in frames], "yaw", "ASPHALT", NO_CI).selected == (
         "immobilised",)
+
+
+def test_a_run_with_three_rows_per_coefficient_gets_its_own_current_fit():
+    # the per-run recalibration falls back to the shared one below 3 rows (samples x sides)
+    # per coefficient of a manoeuvre; at exactly 3 (here 6 spin samples x 2 sides for the 4
+    # coefficients [1, replay, |v_side|, |x|]) the run has its own fit
+    from terrain.audit.ceiling import current_ceiling_samples
+    from terrain.audit.frames import SPIN
+
+    frames = [synthetic_frame(f"r{i}", seed=i, offsets_a=(0.3 * i, -0.2 * i), noise=0.05)
+              for i in range(2)]
+    f = frames[0]
+    spin = np.flatnonzero(f.score_cur & (f.manoeuvre == SPIN))
+    keep = f.score_cur & (f.manoeuvre != SPIN)
+    keep[spin[:6]] = True
+    frames[0] = replace(f, score_cur=keep)
+    tab = current_ceiling_samples(frames)
+    assert tab.attrs["per_run_fallback"] == 0
+    rows = tab[(tab.run_id == "r0") & (tab.manoeuvre == "spin")]
+    assert len(rows) == 12
+    assert not np.allclose(rows.per_run, rows.shared)
