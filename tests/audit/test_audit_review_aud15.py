@@ -86,3 +86,20 @@ def test_a_run_with_three_rows_per_coefficient_gets_its_own_current_fit():
     rows = tab[(tab.run_id == "r0") & (tab.manoeuvre == "spin")]
     assert len(rows) == 12
     assert not np.allclose(rows.per_run, rows.shared)
+
+
+def test_a_parameter_interval_is_the_2_5_and_97_5_percentile_of_unit_refits():
+    from terrain.audit import selection
+    from terrain.audit.effects import EffectSettings, fit_yaw
+
+    units = [[synthetic_frame(f"s/A/{i}", seed=i, bias_rad_s=0.01 * (i + 1), noise=0.01)]
+             for i in range(5)]
+    ci = selection._param_ci(units, "yaw", ["gyro_bias"], "gyro_bias", None,
+                             EffectSettings(), np.random.default_rng(3), 40)
+    rng = np.random.default_rng(3)
+    draws = []
+    for _ in range(40):
+        idx = selection.stratified_resamples(np.zeros(5), rng, 1)[0]
+        draws.append(fit_yaw([units[i][0] for i in idx], ["gyro_bias"]).bias_rad_s)
+    assert ci["bias_rad_s"] == (np.percentile(draws, 2.5), np.percentile(draws, 97.5))
+    assert ci["bias_rad_s"][0] < ci["bias_rad_s"][1]
