@@ -598,27 +598,35 @@ def _check_clocks(imu, wheels, src, found, time_column: str = "time") -> dict[st
 
 
 def _check_gyro(imu, wheels, vehicle, path, found) -> None:
-    spread = float(np.median([np.std(imu[c].to_numpy()) for c in ("wx", "wy", "wz")]))
+    # finite samples only: a non-finite one is the non-finite rule's (an inf made the spread
+    # and the percentile inf, "probably in deg/s"; a NaN the correlation NaN)
+    gyro = [imu[c].to_numpy(float) for c in ("wx", "wy", "wz")]
+    spread = float(np.median([np.std(g[np.isfinite(g)]) if np.isfinite(g).any() else 0.0
+                              for g in gyro]))
+    t_i = imu[TIME].to_numpy(float)
+    ok = np.isfinite(t_i) & np.isfinite(gyro[2])
     t_w = wheels[TIME].to_numpy()
-    t_i = imu[TIME].to_numpy()
     inside = (t_w >= t_i[0]) & (t_w <= t_i[-1])
     dv = (wheels["vel_r"].to_numpy() - wheels["vel_l"].to_numpy())[inside]
     # skid-steer vehicles with datasheet bounds only: a steered vehicle's left/right wheel
     # speeds do not set its yaw rate
-    if vehicle in VEHICLE_LIMITS and dv.size >= 10 and dv.std() >= 0.02:
-        wz = np.interp(t_w[inside], t_i, imu["wz"].to_numpy())
-        dv0, wz0 = dv - dv.mean(), wz - wz.mean()
-        denom = math.sqrt(float(dv0 @ dv0) * float(wz0 @ wz0))
-        corr = float(dv0 @ wz0) / denom if denom > 0 else 0.0
-        k = float(dv0 @ wz0) / float(dv0 @ dv0)
-        if abs(corr) >= 0.5 and abs(k) > DEG_S_SLOPE_PER_M:
-            raise UnitError(
-                f"rule gyro_units: slope of the yaw rate on the wheel speed difference is "
-                f"{k:.1f} 1/m (corr {corr:.2f}); a rad/s gyro gives 1 / (chi B), at most "
-                f"{MAX_YAW_SLOPE_PER_M:g} 1/m, and deg/s multiplies it by 57.3: the gyro is in "
-                "deg/s; convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
+    if vehicle in VEHICLE_LIMITS and ok.sum() >= 2:
+        wz = np.interp(t_w[inside], t_i[ok], gyro[2][ok])
+        keep = np.isfinite(dv)
+        dv, wz = dv[keep], wz[keep]
+        if dv.size >= 10 and dv.std() >= 0.02:
+            dv0, wz0 = dv - dv.mean(), wz - wz.mean()
+            denom = math.sqrt(float(dv0 @ dv0) * float(wz0 @ wz0))
+            corr = float(dv0 @ wz0) / denom if denom > 0 else 0.0
+            k = float(dv0 @ wz0) / float(dv0 @ dv0)
+            if abs(corr) >= 0.5 and abs(k) > DEG_S_SLOPE_PER_M:
+                raise UnitError(
+                    f"rule gyro_units: slope of the yaw rate on the wheel speed difference "
+                    f"is {k:.1f} 1/m (corr {corr:.2f}); a rad/s gyro gives 1 / (chi B), at "
+                    f"most {MAX_YAW_SLOPE_PER_M:g} 1/m, and deg/s multiplies it by 57.3: the "
+                    "gyro is in deg/s; convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
     lim = VEHICLE_LIMITS.get(vehicle)
-    p99 = float(np.percentile(np.abs(imu["wz"].to_numpy()), 99))
+    p99 = float(np.percentile(np.abs(gyro[2][ok]), 99)) if ok.any() else 0.0
     if spread > MAX_GYRO_SPREAD_RAD_S or (lim is not None and p99 > 2 * lim.max_yaw_rate_rad_s):
         found.append(f"{path}: rule gyro_units: gyro spread {spread:.2f} rad/s (median axis "
                      f"std; real runs <= 0.18), 99th-percentile |wz| {p99:.2f} rad/s: the gyro "

@@ -84,3 +84,33 @@ def test_the_implied_rate_is_judged_to_four_significant_digits(rate_hz, warned):
     assert len(found) == warned
     if warned:
         assert "implied sample rate 2004 Hz outside the nominal 10-2000 Hz" in found[0]
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_a_deg_s_gyro_is_refused_with_a_non_finite_sample_among_its_rates(bad):
+    """A served request is checked before its isolated non-finite samples are flagged: one
+    NaN in ``wz`` made the rule's correlation NaN, so a deg/s gyro passed as rad/s; the
+    rule now judges the finite samples (as rule wheel_speed_units does)."""
+    from terrain.errors import UnitError
+
+    streams, _ = _turning_run(2.8)
+    streams["imu"].loc[50, "wz"] = bad
+    streams["imu"].loc[70, "wx"] = bad
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with pytest.raises(UnitError, match="rule gyro_units: slope"):
+            check_run("x/A/00", streams, "husky", {"imu": "imu_00.csv"})
+
+
+def test_a_rad_s_gyro_with_non_finite_samples_is_judged_on_its_finite_ones():
+    """Three inf yaw rates among 201 made the rule's 99th percentile, spread and
+    correlation NaN (NumPy's "invalid value" warnings), judging nothing."""
+    streams, _ = _turning_run(0.0)
+    imu = streams["imu"]
+    imu["wz"] = np.radians(imu["wz"])                  # the same gyro in rad/s
+    imu.loc[[20, 90, 150], "wz"] = np.inf
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        warnings.simplefilter("error", RuntimeWarning)
+        found = check_run("x/A/00", streams, "husky", {"imu": "imu_00.csv"})["warnings"]
+    assert not any("gyro_units" in w for w in found), found
