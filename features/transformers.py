@@ -8,6 +8,8 @@ with names from :meth:`WindowFeatures.get_feature_names_out`, e.g. ``wz__std``,
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.pipeline import FeatureUnion
@@ -20,6 +22,11 @@ from terrain.errors import ConfigError, config_positive, duplicated, first_items
 from terrain.run import IMU_CHANNELS
 
 DEFAULT_STATS = tuple(calculators.STATISTICS)
+
+#: Most bands :func:`linear_bands` makes (0.05 Hz bands up to a 500 Hz Nyquist frequency);
+#: a width typed in the wrong unit (1e-6 Hz at 50 Hz: 25 million bands, each a feature of
+#: every channel) is refused before any is built.
+MAX_BANDS = 10_000
 
 
 def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, float], ...]:
@@ -45,10 +52,15 @@ def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, flo
     ------
     ConfigError
         ``rate_hz`` or ``band_width_hz`` not a finite number > 0 (a negative width gave no
-        band at all).
+        band at all), or more than :data:`MAX_BANDS` bands.
     """
     config_positive("linear_bands", rate_hz=rate_hz, band_width_hz=band_width_hz)
     nyquist = rate_hz / 2.0
+    n_bands = math.ceil(nyquist / band_width_hz)
+    if n_bands > MAX_BANDS:
+        raise ConfigError(f"linear_bands: band_width_hz {band_width_hz:g} Hz cuts 0-{nyquist:g} "
+                          f"Hz into {n_bands} bands, more than {MAX_BANDS} (each is a feature "
+                          "of every channel); is the width in Hz?")
     edges = np.append(np.arange(0.0, nyquist, band_width_hz), nyquist)
     return tuple((float(a), float(b)) for a, b in zip(edges[:-1], edges[1:]) if b - a > 1e-9)
 

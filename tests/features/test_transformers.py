@@ -359,3 +359,16 @@ def test_cross_term_floors_that_are_not_finite_positive_numbers_are_refused(fiel
     with pytest.raises(ConfigError, match=f"WindowFeatures.{field} must be"):
         fx.fit(X)
     assert np.isfinite(WindowFeatures(channels=fx.channels, rate_hz=50.0).fit_transform(X)).all()
+
+
+def test_a_band_width_in_the_wrong_unit_is_refused_before_any_band_is_built():
+    """1e-6 Hz at 50 Hz built 25 million bands, each a feature of every channel; the cap
+    is 10 000 bands."""
+    from features.transformers import MAX_BANDS
+
+    assert len(linear_bands(1000.0, 0.05)) == MAX_BANDS
+    with pytest.raises(ConfigError, match="into 25000000 bands, more than 10000"):
+        linear_bands(50.0, 1e-6)
+    with pytest.raises(ConfigError, match="is the width in Hz"):
+        WindowFeatures(channels=("ax",), rate_hz=50.0, band_width_hz=1e-6).fit(
+            np.ones((1, 1, 100)))
