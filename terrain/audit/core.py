@@ -27,7 +27,8 @@ import pandas as pd
 from terrain.audit.effects import (EffectSettings, YawParams, effect_params,
                                    predict_current, predict_yaw)
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
-                                  FrameSettings, prepare_frame, scored_span)
+                                  FrameSettings, check_same_bandwidth, prepare_frame,
+                                  scored_span)
 from terrain.audit.replay import ReplaySettings, replay_run, require_replayable
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
@@ -103,11 +104,7 @@ class AuditSettings:
         """
         _check_factors("AuditSettings.sweep_factors", self.sweep_factors)
         config_flags("AuditSettings", pooled=self.pooled)
-        if float(self.replay.output_cutoff_hz) != float(self.frames.imu_cutoff_hz):
-            raise ConfigError(
-                f"AuditSettings: replay.output_cutoff_hz ({self.replay.output_cutoff_hz:g} Hz) "
-                f"and frames.imu_cutoff_hz ({self.frames.imu_cutoff_hz:g} Hz) must be equal: "
-                "predictions and IMU are compared at the same bandwidth")
+        check_same_bandwidth(self.replay, self.frames, "AuditSettings")
 
     def as_params(self) -> dict[str, object]:
         """Flat ``section.name -> value`` mapping (for MLflow parameters and the report).

@@ -34,9 +34,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.audit.replay import LOWPASS_MIN_SAMPLES, Replay, lowpass, require_ordered
+from terrain.audit.replay import (LOWPASS_MIN_SAMPLES, Replay, ReplaySettings, lowpass,
+                                  require_ordered)
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
-from terrain.errors import DataWarning, config_positive
+from terrain.errors import ConfigError, DataWarning, config_positive
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import skid_steer_forward
@@ -97,6 +98,31 @@ class FrameSettings:
                         quiet_rad_s=self.quiet_rad_s)
         config_positive("FrameSettings", allow_zero=True, edge_s=self.edge_s,
                         moving_m_s=self.moving_m_s, quiet_margin_s=self.quiet_margin_s)
+
+
+def check_same_bandwidth(replay: ReplaySettings, frames: FrameSettings, owner: str) -> None:
+    """Refuse a replay low-passed at another cut-off than the IMU it is compared with.
+
+    Parameters
+    ----------
+    replay : ReplaySettings
+        Its ``output_cutoff_hz``, Hz.
+    frames : FrameSettings
+        Its ``imu_cutoff_hz``, Hz.
+    owner : str
+        Who checks (named in the message).
+
+    Raises
+    ------
+    ConfigError
+        The two cut-offs differ (a replay at 0.5 Hz against a gyro at 2 Hz puts the gyro's
+        0.5-2 Hz band in the replay's yaw-rate error).
+    """
+    if float(replay.output_cutoff_hz) != float(frames.imu_cutoff_hz):
+        raise ConfigError(
+            f"{owner}: replay.output_cutoff_hz ({replay.output_cutoff_hz:g} Hz) and "
+            f"frames.imu_cutoff_hz ({frames.imu_cutoff_hz:g} Hz) must be equal: predictions "
+            "and IMU are compared at the same bandwidth")
 
 
 @dataclass(frozen=True)

@@ -30,7 +30,8 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.audit.frames import MANOEUVRES, AuditFrame, FrameSettings, prepare_frame
+from terrain.audit.frames import (MANOEUVRES, AuditFrame, FrameSettings, check_same_bandwidth,
+                                  prepare_frame)
 from terrain.audit.replay import ReplaySettings, replay_run
 from terrain.audit.selection import (MAX_BOOTSTRAP, MIN_BOOTSTRAP, has_spread,
                                      stratified_resamples)
@@ -147,7 +148,14 @@ def paired_frames(runs: Sequence[Run], settings: PhysicsComparisonSettings,
         predictions (``sim_*``) on the same samples, timing and lag track.
     skipped : dict
         Run id -> reason (a run the replay or the frame cannot take).
+
+    Raises
+    ------
+    ConfigError
+        ``replay`` and ``frames`` low-pass at different cut-offs
+        (:func:`~terrain.audit.frames.check_same_bandwidth`).
     """
+    check_same_bandwidth(replay, frames, "paired_frames")
     pairs, skipped = [], {}
     for run in runs:
         try:

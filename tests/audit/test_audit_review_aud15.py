@@ -30,6 +30,18 @@ def test_the_predictions_and_the_imu_are_low_passed_at_one_cut_off():
     assert AuditSettings().replay.output_cutoff_hz == AuditSettings().frames.imu_cutoff_hz
 
 
+def test_the_physics_comparison_low_passes_both_at_one_cut_off():
+    # `terrain audit --compare-physics` takes its replay and frame settings apart
+    # (per_run_errors, paired_frames): a 0.5 Hz replay against a 2 Hz gyro compared the
+    # versions with the gyro's 0.5-2 Hz band in both errors, unsaid; refused before any run
+    # is replayed (inside the loop a ConfigError only skips the run)
+    from terrain.audit.physics import PhysicsComparisonSettings, per_run_errors
+
+    with pytest.raises(ConfigError, match=r"paired_frames: replay.output_cutoff_hz \(0\.5"):
+        per_run_errors([object()], PhysicsComparisonSettings(),
+                       replay=ReplaySettings(output_cutoff_hz=0.5))
+
+
 def test_a_dead_gyro_does_not_turn_in_the_ceiling():
     # a gyro reading exactly 0 in every turn gives 1 / chi = 0: the vehicle does not turn
     # the commanded way (chi inf), and the steady family predicts no yaw there
