@@ -155,8 +155,8 @@ def test_a_model_directory_that_is_no_model_is_a_usage_error(script, monkeypatch
     assert "argument --model" in err and "does not exist" in err
 
 
-def test_a_model_given_by_folder_times_the_runs_holding_its_streams(script, monkeypatch,
-                                                                     capsys, logged_metrics):
+def test_a_model_given_by_folder_times_the_runs_holding_its_streams(
+        script, monkeypatch, capsys, logged_metrics):
     # `--model DIR` of a wheel-only model kept the default all-signal recipe's streams: the
     # runs without an IMU were left out (here every run: max() of nothing, a ValueError)
     env = script["main"].__globals__
