@@ -722,8 +722,9 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DataFormatError
-        A ``delays_s`` or ``confusion`` cell that is not a list of numbers or a mapping
-        (the error names the file, column and line).
+        A ``delays_s`` or ``confusion`` cell that is not a list of numbers (an item that
+        is no number, NaN included, is refused, not dropped) or a mapping (the error names
+        the file, column and line).
     """
     frame = pd.read_csv(path)
 
@@ -735,10 +736,13 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
         delays = []
         for row, cell in enumerate(frame["delays_s"]):
             text = str(cell).replace("np.float64(", "").replace(")", "")
-            if not (text.startswith("[") and text.endswith("]")):
+            # every item a number: one that is not (a NaN, a word) is no delay to drop
+            items = [x for x in re.split(r"[,\s]+", text[1:-1]) if x]
+            if not (text.startswith("[") and text.endswith("]")) or \
+                    re.search(r",\s*,", text) or \
+                    not all(_NUMBER.fullmatch(x) for x in items):
                 raise fail("delays_s", row, "a list of switching delays", cell)
-            delays.append([float(x.replace("Infinity", "inf"))
-                           for x in _NUMBER.findall(text)])
+            delays.append([float(x.replace("Infinity", "inf")) for x in items])
         frame["delays_s"] = delays
     if "confusion" in frame:
         confusion = []

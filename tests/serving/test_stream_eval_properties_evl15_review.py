@@ -8,9 +8,11 @@ import math
 
 import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.errors import DataFormatError
 from terrain.run import Run
 from terrain.serving.evaluation import (Segment, concatenated_streams, encode_stream_scores,
                                         pool_scores, read_stream_scores, score_stream,
@@ -263,3 +265,13 @@ def test_a_switch_not_followed_in_its_piece_is_not_followed_by_a_later_piece_of_
     delays = switching_delays(segments, t, decided)
     assert delays.tolist() == [math.inf, 0.25, 0.25]
     assert delays.tolist() == _delays_ref(segments, t, decided)
+
+
+def test_a_delay_cell_with_something_else_than_numbers_is_refused_not_shortened(tmp_path):
+    # "[1.5, oops, 2.0]" was read as [1.5, 2.0]: a switch dropped without a word (and the
+    # pooled median and switch count changed with it)
+    for bad in ("[1.5, oops, 2.0]", "[nan, 3.0]", "[1.5, , 2.0]"):
+        path = tmp_path / "scores.csv"
+        pd.DataFrame({"delays_s": ["[0.5, inf]", bad]}).to_csv(path, index=False)
+        with pytest.raises(DataFormatError, match=r"delays_s.*line 3"):
+            read_stream_scores(path)
