@@ -723,8 +723,9 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
     ------
     DataFormatError
         A ``delays_s`` or ``confusion`` cell that is not a list of numbers (an item that
-        is no number, NaN included, is refused, not dropped) or a mapping (the error names
-        the file, column and line).
+        is no number, NaN included, is refused, not dropped) or a mapping of decision
+        counts (true terrain -> decided terrain -> integer >= 0; the error names the file,
+        column and line).
     """
     frame = pd.read_csv(path)
 
@@ -751,11 +752,20 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
                 conf = ast.literal_eval(str(cell))
             except (ValueError, SyntaxError):
                 conf = None
-            if not isinstance(conf, dict):
+            if not _is_confusion(conf):
                 raise fail("confusion", row, "a mapping of decision counts", cell)
             confusion.append(conf)
         frame["confusion"] = confusion
     return frame
+
+
+def _is_confusion(conf) -> bool:
+    """Whether ``conf`` maps each true terrain to a mapping of decided terrain -> decisions
+    (integers >= 0, at least one decision per true terrain), as :func:`pool_scores` sums it."""
+    return isinstance(conf, dict) and all(
+        isinstance(row, dict) and all(
+            isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in row.values())
+        and sum(row.values()) > 0 for row in conf.values())
 
 
 def _weighted_accuracy(accuracy: pd.Series, n: pd.Series) -> float:

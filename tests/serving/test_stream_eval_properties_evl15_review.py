@@ -275,3 +275,17 @@ def test_a_delay_cell_with_something_else_than_numbers_is_refused_not_shortened(
         pd.DataFrame({"delays_s": ["[0.5, inf]", bad]}).to_csv(path, index=False)
         with pytest.raises(DataFormatError, match=r"delays_s.*line 3"):
             read_stream_scores(path)
+
+
+@pytest.mark.parametrize("bad", ['{"ICE": 5}', '{"ICE": {"ICE": "x"}}',
+                                 '{"ICE": {"ICE": -3, "SNOW": 3}}', '{"ICE": {"ICE": 1.5}}'])
+def test_a_confusion_cell_without_counts_is_refused_where_it_is_read(tmp_path, bad):
+    # such a mapping was read, then pool_scores failed with a bare AttributeError ('int'
+    # object has no attribute 'items'), ValueError or ZeroDivisionError naming no file
+    path = tmp_path / "scores.csv"
+    frame = pd.DataFrame({"accuracy": [0.5, 0.5], "n_decisions": [4, 4],
+                          "delays_s": ["[1.0]"] * 2,
+                          "confusion": ['{"ICE": {"ICE": 2, "none": 2}}', bad]})
+    frame.to_csv(path, index=False)
+    with pytest.raises(DataFormatError, match=r"confusion.*line 3"):
+        read_stream_scores(path)
