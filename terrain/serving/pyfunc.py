@@ -298,7 +298,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                               "names the run it belongs to)", "model input", RUN, row)
     # a run is named by a value (text, a number); a list or a mapping (JSON) cannot be
     # grouped on: pandas failed with Python's bare "unhashable type"
-    odd = np.flatnonzero([not isinstance(r, Hashable) for r in samples[RUN].to_numpy()])
+    runs = samples[RUN].to_numpy()
+    odd = (np.flatnonzero([not isinstance(r, Hashable) for r in runs])
+           if runs.dtype == object else np.empty(0, dtype=int))
     if odd.size:
         row = int(odd[0])
         raise DataFormatError(f"{odd.size} sample(s) whose run name is a "
