@@ -19,7 +19,8 @@ Streams (file columns in brackets where the file names them differently):
 ``cam``    ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
            point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
            m/s, rad/s, rad; rows missing during outages (agrimaro; metadata
-           ``cam_outages_s``: ``[start, end)`` of each, s; ``cam_rows_dropped``: rows removed)
+           ``cam_outages_s``: ``[start, end)`` of each, s; ``cam_rows_dropped``: rows removed;
+           an outage that would leave fewer than :data:`MIN_STREAM_SAMPLES` rows is not planted)
 ``omega``  ``t_s, omega_1, omega_2, omega_3`` reported wheel speeds, rad/s (agrimaro)
 ``cur``    ``t_s, cur_1, cur_2, cur_3`` motor current magnitudes, A (agrimaro)
 
@@ -117,8 +118,9 @@ def minimum_duration_s(vehicle: str, sensors: SensorSettings | None = None,
     its sample periods, rounded up to whole physics steps (the duration is a whole number of
     steps). Husky 0.16 s (wheel reports at 6.5 Hz), tracked 0.1 s (wheels at 10 Hz),
     AgriMaRo 0.04 s (camera at 30 Hz), with the default sensors and 100 Hz physics. The
-    AgriMaRo's simulated visual-odometry outages (0.5-2 s, :class:`SensorSettings`) may still
-    remove camera rows of a short run.
+    AgriMaRo's simulated visual-odometry outages (0.5-2 s, :class:`SensorSettings`) remove
+    camera rows of a short run too, but never so many that fewer than
+    :data:`MIN_STREAM_SAMPLES` remain (such an outage is not planted).
 
     Parameters
     ----------
@@ -510,7 +512,12 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         n_out = rng.poisson(sensors.cam_outage_rate_hz * duration)
         cam_outages = []
         for start, length in zip(rng.uniform(0, duration, n_out), rng.uniform(0.5, 2.0, n_out)):
-            keep &= ~((t_c >= start) & (t_c < start + length))
+            left = keep & ~((t_c >= start) & (t_c < start + length))
+            if left.sum() < MIN_STREAM_SAMPLES:
+                # an outage over (nearly) the whole of a short run left the camera file
+                # unreadable (one row: its rate unknown); it is not planted, nor listed
+                continue
+            keep = left
             cam_outages.append([float(start), float(start + length)])
         streams["cam"] = cam[keep].reset_index(drop=True)
 
