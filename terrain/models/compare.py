@@ -246,10 +246,25 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     # by row position: a frame's own index may repeat (frames joined by pd.concat)
     order = predictions.reset_index(drop=True).sort_values(["group", "t_start_s"],
                                                            kind="stable")
-    smooth = (order.groupby("group", sort=False)[cols]
-              .rolling(k, min_periods=1).mean().reset_index(level=0, drop=True))
-    labels = np.asarray(classes, dtype=object)[smooth[cols].to_numpy().argmax(axis=1)]
-    return pd.Series(labels, index=smooth.index).sort_index().to_numpy()
+    proba = order[cols].to_numpy(dtype=float)
+    group = order["group"].to_numpy()
+    n = len(order)
+    first = np.ones(n, dtype=bool)
+    first[1:] = group[1:] != group[:-1]
+    start = np.maximum.accumulate(np.where(first, np.arange(n), 0))   # row of the run's start
+    # the sum of exactly the last k windows, oldest first (a rolling mean's running sum kept
+    # the rounding of windows that left the history: a tie of the last k went either way)
+    total = np.zeros_like(proba)
+    count = np.zeros(n)
+    for lag in range(min(k, n) - 1, -1, -1):
+        at = np.arange(n) - lag
+        inside = at >= start
+        total[inside] += proba[at[inside]]
+        count += inside
+    labels = np.empty(n, dtype=object)
+    labels[order.index.to_numpy()] = np.asarray(classes, dtype=object)[
+        (total / count[:, None]).argmax(axis=1)]
+    return labels
 
 
 def score_rows(predictions: pd.DataFrame, classes: Sequence[str], history: Sequence[int],
