@@ -55,7 +55,8 @@ def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]
     cells : pandas.DataFrame
         The folders' ``compare_cells.csv`` rows, with a ``folder`` column.
     keys : list of str
-        Columns that, with ``model`` and ``history``, identify one cell.
+        Columns that, with ``model``, identify one cell (whatever histories it was scored
+        at: a cell's rows at other histories in another folder are the same predictions).
 
     Returns
     -------
@@ -63,7 +64,7 @@ def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]
         One line per duplicated cell: its model, keys and the folders holding it (empty
         when every cell is in one folder).
     """
-    ident = ["model", *keys, "history"]
+    ident = ["model", *keys]
     folders = cells.groupby(ident, dropna=False)["folder"].agg(lambda f: sorted(set(f)))
     return [f"{key[0]} ({', '.join(f'{k} {v}' for k, v in zip(ident[1:], key[1:]))}): "
             + ", ".join(where) for key, where in folders.items() if len(where) > 1]

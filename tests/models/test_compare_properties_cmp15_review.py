@@ -251,3 +251,20 @@ def test_merging_two_folders_equals_one_folder_of_their_union(cells, split,
         acc = votes[(votes["seed"] == seed) & (votes["history"] == 1)]["accuracy"].item()
         assert acc == pytest.approx(np.mean(np.where(p > 0.5, True, False) == truth)) or (
             np.isclose(p, 0.5).any())
+
+
+def test_merge_refuses_a_cell_that_two_folders_hold_at_different_histories(tmp_path, capsys):
+    # a rerun of m1 seed 0 asking history 10 beside the history-1 run: the same cell (its
+    # predictions twice); it passed the check and the vote stopped on a traceback
+    # ('12 window(s) given more than once')
+    pb = np.linspace(0.1, 0.9, 12)
+    _folder(tmp_path / "a", [("m1", 0, pb), ("m2", 0, pb[::-1])])
+    _folder(tmp_path / "b", [("m1", 0, pb)])
+    cells = pd.read_csv(tmp_path / "b" / "compare_cells.csv")
+    cells.assign(history=10).to_csv(tmp_path / "b" / "compare_cells.csv", index=False)
+    code = _merge([tmp_path / "a", tmp_path / "b"], tmp_path / "out", "--vote", "m1", "m2",
+                  "--history", "1")
+    assert code == 2
+    err = capsys.readouterr().err
+    assert "a cell is in more than one folder" in err and "m1" in err and "seed 0" in err
+    assert not (tmp_path / "out").exists()
