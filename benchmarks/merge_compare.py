@@ -5,7 +5,8 @@ and one seed per folder, run in parallel). Cells are concatenated; for every (da
 signals, window, seed) where all ``--vote`` members are present, their out-of-fold
 probabilities are averaged with equal weights (:func:`terrain.models.compare.soft_vote`,
 identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
-same folds) and scored as model ``vote(<members>)``; its train time is the members' sum and
+same folds) and scored as model ``vote(<members>)`` (where a member is missing, the vote is
+left out and a note says how often); its train time is the members' sum and
 its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png``
 (and ``compare_grid.png`` / ``compare_grid.md``, signal set x window, when the folders span
 several signal sets or windows) and
@@ -93,9 +94,12 @@ def main() -> int:
     rows = [cells]
     for vote in args.vote or [["svm", "cnn", "cnn-spectrogram"]]:
         name = "vote(" + "+".join(vote) + ")"
+        left_out, missing = 0, set()
         for key, frame in preds.groupby(keys):
             members = [frame[frame["model"] == m] for m in vote]
-            if any(m.empty for m in members):
+            if any(m.empty for m in members):   # counted and said below
+                left_out += 1
+                missing.update(m for m, f in zip(vote, members) if f.empty)
                 continue
             # folders of several datasets: only this dataset's probability columns are filled
             classes = [c[6:] for c in frame.columns
@@ -108,6 +112,9 @@ def main() -> int:
                       "fit_s_per_fold": float(sub["fit_s_per_fold"].sum()),
                       "infer_ms_per_window": float(sub["infer_ms_per_window"].sum())}
             rows.append(pd.DataFrame(score_rows(voted, classes, args.history, fields)))
+        if left_out:
+            print(f"note: {name} left out at {left_out} of {preds.groupby(keys).ngroups} "
+                  f"({', '.join(keys)}): no {', '.join(sorted(missing))} predictions there")
     per_seed = pd.concat(rows, ignore_index=True)
     table = summary_table(per_seed)
     args.out.mkdir(parents=True, exist_ok=True)

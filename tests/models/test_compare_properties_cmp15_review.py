@@ -268,3 +268,18 @@ def test_merge_refuses_a_cell_that_two_folders_hold_at_different_histories(tmp_p
     err = capsys.readouterr().err
     assert "a cell is in more than one folder" in err and "m1" in err and "seed 0" in err
     assert not (tmp_path / "out").exists()
+
+
+def test_merge_says_where_a_vote_was_left_out_for_a_missing_member(tmp_path, capsys):
+    # '--vote m1 m9' (m9 in no folder) wrote no vote row and said nothing
+    pb = np.linspace(0.1, 0.9, 12)
+    _folder(tmp_path / "a", [("m1", 0, pb), ("m2", 0, pb), ("m1", 1, pb)])
+    _folder(tmp_path / "b", [("m2", 1, pb[::-1])])
+    assert _merge([tmp_path / "a", tmp_path / "b"], tmp_path / "out", "--vote", "m1", "m9",
+                  "--vote", "m1", "m2", "--history", "1") == 0
+    out = capsys.readouterr().out
+    assert ("note: vote(m1+m9) left out at 2 of 2 (protocol, dataset, signals, window_s, "
+            "train_hop_s, seed): no m9 predictions there") in out
+    assert "vote(m1+m2) left out" not in out
+    models = pd.read_csv(tmp_path / "out" / "compare_cells.csv")["model"]
+    assert (models == "vote(m1+m2)").sum() == 2 and not (models == "vote(m1+m9)").any()
