@@ -63,8 +63,12 @@ def test_markdown_shows_every_group_once(rows):
     table = summary_table(rows)
     lines = markdown_table(table).splitlines()[2:]
     assert len(lines) == len(table)
-    shown = [tuple(c.strip() for c in line.strip("|").split("|"))[:6] for line in lines]
-    assert len(set(shown)) == len(shown)
+    shown = [tuple(c.strip() for c in line.strip("|").split("|")) for line in lines]
+    assert len(set(c[:6] for c in shown)) == len(shown)
+    for cells, (_, r) in zip(shown, table.iterrows()):      # in the table's row order
+        assert cells[5] == r["model"] and cells[12] == str(r["n_seeds"])
+        for j, m in enumerate(TABLE_METRICS):
+            assert cells[6 + j] == f"{r[m + '_mean']:.3f} ± {r[m + '_std']:.3f}"
 
 
 @settings(max_examples=30, deadline=None)
@@ -283,3 +287,24 @@ def test_merge_says_where_a_vote_was_left_out_for_a_missing_member(tmp_path, cap
     assert "vote(m1+m2) left out" not in out
     models = pd.read_csv(tmp_path / "out" / "compare_cells.csv")["model"]
     assert (models == "vote(m1+m2)").sum() == 2 and not (models == "vote(m1+m9)").any()
+
+
+def test_a_vote_over_folders_of_two_datasets_uses_each_datasets_own_classes(tmp_path):
+    # the toy2 rows leave toy's proba_A / proba_B empty and the other way round: a vote
+    # over all four columns would be decided by missing values
+    pb = np.array([0.2] * 6 + [0.8] * 6)
+    for name, model in (("a", "m1"), ("b", "m2")):
+        _folder(tmp_path / name, [(model, 0, pb)])
+        preds = pd.read_csv(tmp_path / name / "predictions.csv")
+        other = preds.rename(columns={"proba_A": "proba_C", "proba_B": "proba_D"}).assign(
+            dataset="toy2", true=preds["true"].map({"A": "C", "B": "D"}))
+        pd.concat([preds, other]).to_csv(tmp_path / name / "predictions.csv", index=False)
+        cells = pd.read_csv(tmp_path / name / "compare_cells.csv")
+        pd.concat([cells, cells.assign(dataset="toy2")]).to_csv(
+            tmp_path / name / "compare_cells.csv", index=False)
+    assert _merge([tmp_path / "a", tmp_path / "b"], tmp_path / "out", "--vote", "m1", "m2",
+                  "--history", "1") == 0
+    merged = pd.read_csv(tmp_path / "out" / "compare_cells.csv")
+    votes = merged[merged["model"] == "vote(m1+m2)"].set_index("dataset")
+    assert votes.loc["toy", "accuracy"] == pytest.approx(1.0)
+    assert votes.loc["toy2", "accuracy"] == pytest.approx(1.0)
