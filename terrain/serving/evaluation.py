@@ -504,7 +504,14 @@ def score_stream(segments: Sequence[Segment], t_s: np.ndarray, decided: np.ndarr
     Returns
     -------
     StreamScore
+
+    Raises
+    ------
+    ConfigError
+        ``window_s`` not a finite number >= 0 (a NaN one would leave no decision settled,
+        silently).
     """
+    config_positive("score_stream", allow_zero=True, window_s=window_s)
     truth = truth_at(segments, t_s)
     sel = truth != None  # noqa: E711 (element-wise)
     ok = decided == truth
@@ -631,7 +638,8 @@ def held_out_streams(runs: Sequence[Run], recipe: ModelRecipe, seed: int,
                      smoothings: Mapping[str, SmoothingConfig], hop_s: float = 0.5,
                      n_splits: int = 5, switch_gap_s: float = 0.0,
                      progress: bool = False) -> pd.DataFrame:
-    """Train on 4/5 of the runs, replay the held-out fifth as one concatenated stream.
+    """Train on all but one fold of the runs, replay the held-out fold as one concatenated
+    stream (4/5 and a fifth with the default five folds).
 
     Runs are split by ``StratifiedGroupKFold`` over runs (one group per run, seeded); each
     fold's test runs are strung together by :func:`concatenated_streams` (switches every
@@ -722,8 +730,9 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
     Raises
     ------
     DataFormatError
-        A ``delays_s`` or ``confusion`` cell that is not a list of numbers (an item that
-        is no number, NaN included, is refused, not dropped) or a mapping of decision
+        A ``delays_s`` or ``confusion`` cell that is not a list of numbers >= 0 (an item
+        that is no number, NaN or a negative delay included, is refused, not dropped) or a
+        mapping of decision
         counts (true terrain -> decided terrain -> integer >= 0; the error names the file,
         column and line).
     """
@@ -743,7 +752,10 @@ def read_stream_scores(path: str | Path) -> pd.DataFrame:
                     re.search(r",\s*,", text) or \
                     not all(_NUMBER.fullmatch(x) for x in items):
                 raise fail("delays_s", row, "a list of switching delays", cell)
-            delays.append([float(x.replace("Infinity", "inf")) for x in items])
+            values = [float(x.replace("Infinity", "inf")) for x in items]
+            if any(v < 0.0 for v in values):    # from a switch to its first decision: >= 0
+                raise fail("delays_s", row, "a list of switching delays >= 0 s", cell)
+            delays.append(values)
         frame["delays_s"] = delays
     if "confusion" in frame:
         confusion = []

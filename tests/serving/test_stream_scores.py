@@ -284,3 +284,29 @@ def test_offline_scoring_takes_the_skipped_silent_stretch_as_the_live_service_do
     assert score.delays_s == (float(t_s[after][live[after] == "ICE"][0] - 120.0),)
     names = np.array(list(classes) + [None], dtype=object)
     np.testing.assert_array_equal(names[filter_sequence(proba, 0.5, config, t_s)], live)
+
+
+@pytest.mark.parametrize("bad", ["[-0.5]", "[1.0, -inf]", "[-Infinity]"])
+def test_a_negative_switching_delay_is_refused(tmp_path, bad):
+    # a switching delay runs from the switch to the first decision naming the new terrain:
+    # it is >= 0 (inf: never followed); a negative one is a broken table, not a fast switch
+    frame = encode_stream_scores(_rows())
+    frame.loc[0, "delays_s"] = bad
+    path = tmp_path / "negative.csv"
+    frame.to_csv(path, index=False)
+    with pytest.raises(DataFormatError, match=r"delays_s.*line 2"):
+        read_stream_scores(path)
+
+
+@pytest.mark.parametrize("window_s", [np.nan, np.inf, -1.0])
+def test_score_stream_refuses_a_window_that_is_no_history(window_s):
+    from terrain.errors import ConfigError
+    from terrain.serving.evaluation import Segment, score_stream
+    segments = [Segment("a", "ICE", 0.0, 0.0, 10.0), Segment("b", "SNOW", 0.0, 10.0, 10.0)]
+    t = np.arange(0.0, 20.0, 0.5)
+    decided = np.where(t < 10.0, "ICE", "SNOW").astype(object)
+    with pytest.raises(ConfigError, match="window_s"):
+        score_stream(segments, t, decided, window_s=window_s)
+    # the same stream with a real window scores: settled decisions exclude the transient
+    score = score_stream(segments, t, decided, window_s=2.0)
+    assert score.accuracy == 1.0 and score.n_settled == len(t) - 8
