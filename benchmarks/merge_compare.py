@@ -6,7 +6,9 @@ signals, window, seed) where all ``--vote`` members are present, their out-of-fo
 probabilities are averaged with equal weights (:func:`terrain.models.compare.soft_vote`,
 identical to the fixed-weight :class:`~terrain.models.ensemble.SoftVotingEnsemble` on the
 same folds) and scored as model ``vote(<members>)`` (where a member is missing, the vote is
-left out and a note says how often); its train time is the members' sum and
+left out and a note says how often); folders run under other folds (``n_splits``,
+``single_run_blocks``) or, for one model, other CNN training (``max_epochs``,
+``early_stopping``, ``cnn_seeds``) are refused; its train time is the members' sum and
 its inference time the sum of theirs. Writes ``compare_table.md/.csv``, ``compare.png``
 (and ``compare_grid.png`` / ``compare_grid.md``, signal set x window, when the folders span
 several signal sets or windows) and
@@ -25,9 +27,9 @@ from pathlib import Path
 import pandas as pd
 
 from pipelines.arguments import DistinctValues, output_dir, positive_integer
-from terrain.models.compare import (grid_markdown, markdown_table, plot_comparison, plot_grid,
-                                    score_rows, soft_vote, spans_grid, summary_table,
-                                    with_default_keys)
+from terrain.models.compare import (CNN_SETTINGS, PROTOCOL_SETTINGS, grid_markdown,
+                                    markdown_table, plot_comparison, plot_grid, score_rows,
+                                    soft_vote, spans_grid, summary_table, with_default_keys)
 
 
 def _read(path: Path) -> pd.DataFrame:
@@ -71,6 +73,51 @@ def _cells_in_several_folders(cells: pd.DataFrame, keys: list[str]) -> list[str]
             + ", ".join(where) for key, where in folders.items() if len(where) > 1]
 
 
+def _shown(value) -> str:
+    """A setting as typed (a CSV column with gaps reads 30 as 30.0)."""
+    return f"{value:g}" if isinstance(value, float) else str(value)
+
+
+def _settings_conflicts(cells: pd.DataFrame) -> tuple[list[str], list[str]]:
+    """Name every setting that the folders ran under differently.
+
+    The folds (``n_splits``, ``single_run_blocks``) must be one for all folders: a vote
+    averages its members window by window and the table pools seeds. A CNN's training
+    (``max_epochs``, ``early_stopping``, ``cnn_seeds``) must be one per model.
+
+    Parameters
+    ----------
+    cells : pandas.DataFrame
+        The folders' ``compare_cells.csv`` rows, with a ``folder`` column.
+
+    Returns
+    -------
+    conflicts : list of str
+        One line per setting (and model) given different values, naming each value's
+        folders.
+    unchecked : list of str
+        Folders that record none of the fold settings (written before
+        :func:`terrain.models.compare.protocol_settings`), not checked.
+    """
+    conflicts = []
+    for setting in PROTOCOL_SETTINGS + CNN_SETTINGS:
+        if setting not in cells:
+            continue
+        known = cells.dropna(subset=[setting])
+        groups = (known.groupby("model", sort=True) if setting in CNN_SETTINGS
+                  else [(None, known)])
+        for model, frame in groups:
+            folders = frame.groupby(setting, sort=True)["folder"].unique()
+            if len(folders) > 1:
+                where = f" of {model}" if model is not None else ""
+                conflicts.append(f"{setting}{where}: " + "; ".join(
+                    f"{_shown(v)} in {', '.join(sorted(f))}" for v, f in folders.items()))
+    recorded = [s for s in PROTOCOL_SETTINGS if s in cells]
+    unchecked = sorted(set(cells["folder"]) - set(
+        cells.dropna(subset=recorded, how="all")["folder"] if recorded else ()))
+    return conflicts, unchecked
+
+
 def main() -> int:
     """Merge the folders, add the vote, write the table and figure."""
     parser = argparse.ArgumentParser(allow_abbrev=False, description=__doc__.splitlines()[0])
@@ -89,6 +136,13 @@ def main() -> int:
     if twice:
         parser.error("a cell is in more than one folder (it would count as several seeds); "
                      "pass one folder per cell:\n  " + "\n  ".join(twice))
+    conflicts, unchecked = _settings_conflicts(cells)
+    if conflicts:
+        parser.error("the folders ran under other settings (their seeds and votes would mix "
+                     "protocols); merge folders of one setting:\n  " + "\n  ".join(conflicts))
+    if unchecked:
+        print(f"note: {', '.join(unchecked)} record no fold or training settings (written "
+              "before they were recorded): not checked against the other folders")
     cells = cells.drop(columns="folder")
     preds = pd.concat([_read(d / "predictions.csv") for d in args.dirs])
     rows = [cells]

@@ -430,6 +430,36 @@ def cell_windows(cell: Cell, n_blocks: int) -> CellWindows:
                        tuple(split), n_dropped, notes)
 
 
+#: Settings a cell's figures depend on beyond its key: the folds (every model) and a CNN's
+#: training (models that hold one); recorded in every row so that merged folders can be
+#: checked for them (``benchmarks/merge_compare.py``).
+PROTOCOL_SETTINGS = ("n_splits", "single_run_blocks")
+CNN_SETTINGS = ("max_epochs", "early_stopping", "cnn_seeds")
+
+
+def protocol_settings(model: str, config: CompareConfig) -> dict:
+    """The settings of :data:`PROTOCOL_SETTINGS` and :data:`CNN_SETTINGS` one cell ran under.
+
+    Parameters
+    ----------
+    model : str
+        The cell's model (:data:`~terrain.models.registry.MODELS`).
+    config : CompareConfig
+        The grid's settings.
+
+    Returns
+    -------
+    dict
+        Setting -> value; the CNN settings are None for a model without a CNN (they do not
+        touch it, so folders that differ only there are not in conflict).
+    """
+    cnn = bool(cnn_kinds(model))
+    return {"n_splits": config.n_splits, "single_run_blocks": config.single_run_blocks,
+            "max_epochs": config.max_epochs if cnn else None,
+            "early_stopping": config.early_stopping if cnn else None,
+            "cnn_seeds": cnn_seeds_for(model, config.cnn_seeds) if cnn else None}
+
+
 def run_cell(cell: Cell, config: CompareConfig) -> dict:
     """Cross-validate one cell and score it at every history length.
 
@@ -444,7 +474,8 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
     -------
     dict
         ``cell`` (its fields), ``rows`` (one dict per history length: the table metrics,
-        ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``, ``n_windows_dropped``),
+        ``fit_s_per_fold``, ``infer_ms_per_window``, ``n_windows``, ``n_windows_dropped``
+        and the settings of :func:`protocol_settings`),
         ``folds`` (frame), ``predictions`` (frame with probabilities) and ``notes`` (what
         the cut into time blocks changed, :attr:`CellWindows.notes`).
     """
@@ -464,6 +495,7 @@ def run_cell(cell: Cell, config: CompareConfig) -> dict:
                       {**asdict(cell), "fit_s_per_fold": float(report.folds["fit_s"].mean()),
                        "infer_ms_per_window": float(report.folds["infer_ms_per_window"].mean()),
                        "cell_wall_s": wall_s, "n_windows_dropped": cut.n_dropped,
+                       **protocol_settings(cell.model, config),
                        **({"epochs_per_fold": float(report.folds["n_epochs"].mean())}
                           if "n_epochs" in report.folds else {})})
     return {"cell": asdict(cell), "rows": rows, "folds": report.folds.assign(**asdict(cell)),

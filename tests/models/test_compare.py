@@ -140,6 +140,12 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     cells = pd.read_csv(out / "compare_cells.csv")
     assert (cells.loc[cells["model"] == "cnn", "epochs_per_fold"] == 1).all()  # --quick: 1 epoch
     assert (cells["protocol"] == "grouped").all()
+    # the protocol's settings travel with every cell, so merge_compare can refuse to pool
+    # folders run under other folds or epochs; those of a CNN only on CNN rows
+    assert (cells["n_splits"] == 2).all() and (cells["single_run_blocks"] == 5).all()
+    assert (cells.loc[cells["model"] == "cnn", "max_epochs"] == 1).all()
+    assert cells.loc[cells["model"] == "svm", "max_epochs"].isna().all()
+    assert (cells.loc[cells["model"] == "cnn", "cnn_seeds"] == 1).all()
     activate_store()
     parent = mlflow.search_runs(experiment_names=["terrain-compare"],
                                 filter_string="attributes.run_name = 'compare'")
@@ -346,6 +352,50 @@ def test_merge_compare_refuses_a_cell_given_by_two_folders(tmp_path, monkeypatch
     err = capsys.readouterr().err
     assert "m1" in err and "first" in err and "rerun" in err and "seed 0" in err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("setting,first,second,models", [
+    ("n_splits", 5, 3, ("m1", "m2")),          # folds differ: the vote's members too
+    ("max_epochs", 30, 1, ("m1", "m1")),       # one model's seeds trained for other epochs
+    ("cnn_seeds", 1, 3, ("m1", "m1"))])
+def test_merge_compare_refuses_folders_run_with_other_settings(
+        tmp_path, monkeypatch, capsys, setting, first, second, models):
+    import runpy
+    import sys
+
+    m = np.array([0.1] * 3 + [0.9] * 3 + [0.8] * 6)
+    for name, model, value, seed in (("a", models[0], first, 0), ("b", models[1], second, 1)):
+        _compare_folder(tmp_path / name, model, m, with_protocol=True)
+        for csv in ("compare_cells.csv", "predictions.csv"):
+            frame = pd.read_csv(tmp_path / name / csv).assign(seed=seed)
+            if csv == "compare_cells.csv":
+                frame[setting] = value
+            frame.to_csv(tmp_path / name / csv, index=False)
+    out = tmp_path / "merged"
+    argv = ["merge_compare.py", str(tmp_path / "a"), str(tmp_path / "b"), "--vote",
+            *dict.fromkeys(models), "--history", "1", "--out", str(out)]
+    monkeypatch.setattr(sys, "argv", argv)
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 2
+    err = capsys.readouterr().err
+    assert setting in err and f"{first}" in err and f"{second}" in err
+    assert str(tmp_path / "a") in err and str(tmp_path / "b") in err
+    assert not out.exists()
+    # the same folders under one setting merge (and a folder recording none is not checked)
+    cells = pd.read_csv(tmp_path / "b" / "compare_cells.csv")
+    cells.assign(**{setting: first}).to_csv(tmp_path / "b" / "compare_cells.csv", index=False)
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 0
+    cells.drop(columns=setting).to_csv(tmp_path / "b" / "compare_cells.csv", index=False)
+    monkeypatch.setattr(sys, "argv", argv[:-1] + [str(tmp_path / "merged2")])
+    with pytest.raises(SystemExit) as done:
+        runpy.run_path(str(Path(__file__).parents[2] / "benchmarks" / "merge_compare.py"),
+                       run_name="__main__")
+    assert done.value.code == 0
 
 
 def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, capsys):
