@@ -268,11 +268,11 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         A value beyond its channel's plausibility range (:func:`terrain.io.plausibility.
         check_ranges`).
     NonFiniteError
-        A NaN or infinite timestamp (names the run and row).
+        A NaN or infinite timestamp (names the run and the row of ``samples``).
     TimestampError
         Timestamps not strictly increasing within a run, or a step longer than 1.5 sample
         periods (a hole without rows: a gap must be NaN rows on the uniform clock); names
-        the run and row.
+        the run and the row of ``samples`` (0-based, runs interleaved or not).
     DataFormatError
         A median sample rate more than 1 % off ``config.rate_hz``, a sample without a
         run (``run`` missing: names the first row), a run named by a list or a mapping
@@ -313,18 +313,20 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                               "would be answered under the same name; give each run one "
                               "name", "model input", RUN)
     out, dropped, empty, tail, between, short = [], 0, 0, 0.0, 0.0, []
+    samples = samples.reset_index(drop=True)    # errors name the request's row
     for run_id, frame in samples.groupby(RUN, sort=False):
+        at = frame.index.to_numpy()     # request row of each of the run's samples
         frame = frame.reset_index(drop=True)
         t = frame[TIME].to_numpy(dtype=float)
         if not np.isfinite(t).all():
             row = int(np.flatnonzero(~np.isfinite(t))[0])
             raise NonFiniteError(f"non-finite timestamp {t[row]}",
-                                 f"model input, run {run_id}", TIME, row)
+                                 f"model input, run {run_id}", TIME, int(at[row]))
         dt = np.diff(t)
         if (dt <= 0).any():
             row = int(np.flatnonzero(dt <= 0)[0]) + 1
             raise TimestampError("timestamps must increase strictly within a run",
-                                 f"model input, run {run_id}", TIME, row)
+                                 f"model input, run {run_id}", TIME, int(at[row]))
         if dt.size and abs(np.median(dt) * config.rate_hz - 1.0) > 0.01:
             raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
                                   f"{config.rate_hz} Hz (align with align_streams)",
@@ -338,7 +340,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  f"than 1.5 sample periods; aligned samples are on a uniform "
                                  f"{config.rate_hz:g} Hz clock, a gap being rows of NaN "
                                  f"(align with align_streams)",
-                                 f"model input, run {run_id}", TIME, row)
+                                 f"model input, run {run_id}", TIME, int(at[row]))
         frame = add_derived_channels(frame, track_m)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
         empty += counts["empty_gap"]
