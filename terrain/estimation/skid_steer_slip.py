@@ -497,8 +497,9 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
     Returns
     -------
     lower, upper : ndarray, shape (N,)
-        Speed range, m/s (``lower <= 0 <= upper``); ``-inf, inf`` before the first wheel
-        sample (everywhere without one).
+        Speed range, m/s (``lower <= 0 <= upper``); ``-inf, inf`` before the first finite
+        wheel sample (everywhere without one) and, with ``hold_s``, at the steps whose
+        window reaches back before it.
 
     Raises
     ------
@@ -528,11 +529,17 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
     lower[held], upper[held] = rim_speed_range_m_s(rim[latest[held]], braking_slip,
                                                    rim_margin_m_s)
     if hold_s > 0:
-        # the widest range over the window (t - hold_s, t] of each step
+        # the widest range over the window (t - hold_s, t] of each step; a window reaching a
+        # step before the first sample (no range, -inf / inf) has none (pandas' rolling max
+        # reads an infinite value as missing: those steps were NaN, which run_filter refused)
         clock = pd.to_timedelta(t_grid_s - t_grid_s[0], unit="s")
-        window = pd.DataFrame({"back": -lower, "ahead": upper}, index=clock).rolling(
+        window = pd.DataFrame({"back": np.where(held, -lower, 0.0),
+                               "ahead": np.where(held, upper, 0.0),
+                               "none": np.where(held, 0.0, 1.0)}, index=clock).rolling(
             pd.Timedelta(seconds=hold_s)).max()
-        lower, upper = -window["back"].to_numpy(), window["ahead"].to_numpy()
+        unbounded = window["none"].to_numpy() > 0.0
+        lower = np.where(unbounded, -np.inf, -window["back"].to_numpy())
+        upper = np.where(unbounded, np.inf, window["ahead"].to_numpy())
     return lower, upper
 
 
