@@ -67,3 +67,306 @@ def test_a_wheel_stream_that_starts_with_a_dropout_runs_with_the_speed_bound():
     lo, up = speed_bounds_m_s(grid, samples["wheels"], -0.3, 0.09, 1.0)
     assert (lo[:10] == -np.inf).all() and (up[:10] == np.inf).all()
     assert np.isfinite(lo[-1]) and np.isfinite(up[-1])
+
+
+# ---------------------------------------------------------------- mirror symmetry (left/right)
+
+def _mirror_slip_state(x):
+    """Left and right swapped: yaw rate and gyro bias negated, the two side slips swapped."""
+    m = np.array(x, dtype=float)
+    m[1], m[2] = -x[1], -x[2]
+    m[4], m[5] = x[5], x[4]
+    return m
+
+
+@FAST
+@given(v=st.floats(-3, 3), w=st.floats(-2, 2), b=st.floats(-0.1, 0.1), lc=st.floats(-1, 2),
+       s1=st.floats(-0.99, 0.99), s2=st.floats(-0.99, 0.99), a=st.floats(-3, 3),
+       th=st.floats(-1, 1))
+def test_slip_model_rows_are_mirror_symmetric(v, w, b, lc, s1, s2, a, th):
+    """Swapping the sides (yaw rate, gyro bias negated, slip_1 <-> slip_2) swaps vel_l and
+    vel_r and the slip rows and negates wz; the accelerometer rows are unchanged; the
+    Jacobian transforms the same way (H(Mx) = N H(x) M)."""
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+    model = SkidSteerSlipModel()
+    x = np.array([v, w, b, lc, s1, s2, a, th])
+    hx, H = model.observation(x)
+    hm, Hm = model.observation(_mirror_slip_state(x))
+    N = np.eye(7)[[1, 0, 2, 4, 3, 5, 6]]
+    N[2, 2] = -1.0
+    M = np.eye(8)[[0, 1, 2, 3, 5, 4, 6, 7]]
+    M[1, 1] = M[2, 2] = -1.0
+    np.testing.assert_allclose(hm, N @ hx, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(Hm, N @ H @ M, rtol=1e-12, atol=1e-12)
+
+
+def _skid_run(seed, n=200, rate=100.0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate
+    v = rng.uniform(-1, 1) + 0.2 * np.sin(t * rng.uniform(0.5, 3))
+    w = rng.uniform(-0.6, 0.6) * np.cos(t * rng.uniform(0.2, 2))
+    half = 1.4 * TRACK_M * w / 2
+    wheels = np.column_stack([v - half, v + half]) + 0.02 * rng.normal(size=(n, 2))
+    gyro = w + 0.01 + 0.005 * rng.normal(size=n)
+    return t, wheels, gyro
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), engine=st.sampled_from(["numpy", "numba"]))
+def test_a_mirrored_skid_steer_run_negates_yaw_rate_and_bias_and_keeps_speed_and_chi(seed,
+                                                                                     engine):
+    """vel_l <-> vel_r and wz -> -wz: v_bx and ln(chi) are the same, yaw rate and gyro bias
+    change sign, at every step, on both engines (the prior is symmetric: yaw rate and bias
+    0, diagonal P0)."""
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+    model = SkidSteerModel(SkidSteerSettings(chi0=1.4))
+    t, wheels, gyro = _skid_run(seed)
+    a = run_filter(model, t, {"wheels": SensorSamples(t, wheels),
+                              "gyro": SensorSamples(t, gyro[:, None])}, engine=engine)
+    b = run_filter(model, t, {"wheels": SensorSamples(t, wheels[:, ::-1]),
+                              "gyro": SensorSamples(t, -gyro[:, None])}, engine=engine)
+    sign = np.array([1.0, -1.0, -1.0, 1.0])
+    np.testing.assert_allclose(b.x, a.x * sign, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.P_diag, a.P_diag, rtol=1e-9, atol=1e-15)
+    np.testing.assert_allclose(b.nis, a.nis, rtol=1e-9, atol=1e-12)
+
+
+# ------------------------------------------------------------- time shift / chunking invariance
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), shift=st.sampled_from([-50.0, -0.125, 3.0, 1000.0]),
+       engine=st.sampled_from(["numpy", "numba"]))
+def test_a_run_does_not_depend_on_the_origin_of_its_clock(seed, shift, engine):
+    """Every timestamp (grid and samples) shifted by the same number of seconds (exact in
+    binary): the same estimate, covariance and counts."""
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+    model = SkidSteerModel(SkidSteerSettings(chi0=1.4))
+    t, wheels, gyro = _skid_run(seed)
+    tw = t[::3] + 0.004
+
+    def run(c):
+        return run_filter(model, t + c, {"wheels": SensorSamples(tw + c, wheels[::3]),
+                                         "gyro": SensorSamples(t + c, gyro[:, None])},
+                          engine=engine)
+    a, b = run(0.0), run(shift)
+    np.testing.assert_allclose(b.x, a.x, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.P_diag, a.P_diag, rtol=1e-9, atol=1e-15)
+    assert a.counts == b.counts
+
+
+def _slip_samples(seed, n=151, rate=50.0):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / rate
+    v = rng.uniform(0.2, 1.0) + 0.2 * np.sin(t)
+    w = rng.uniform(-0.4, 0.4) * np.cos(t)
+    half = 1.4 * TRACK_M * w / 2
+    wheels = np.column_stack([v - half, v + half]) / 0.9 + 0.01 * rng.normal(size=(n, 2))
+    acc = np.column_stack([0.2 * np.cos(t), 9.8 + 0 * t]) + 0.05 * rng.normal(size=(n, 2))
+    return t, {"wheels": SensorSamples(t + 0.001, wheels),
+               "gyro": SensorSamples(t, (w + 0.01 * rng.normal(size=n))[:, None]),
+               "accel": SensorSamples(t, acc)}
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), k=st.integers(1, 8), bound=st.booleans())
+def test_segmented_pseudo_slip_run_with_one_std_equals_one_run_of_the_whole_grid(
+        seed, k, bound):
+    """run_with_pseudo_slip cuts the grid after each pseudo-measurement and hands x, P from
+    segment to segment; with the same std for every window (and no drift scaling) every
+    segment has the same model, so the result is one run_filter over the whole grid with the
+    pseudo-measurements as a sensor (states, covariances, counts)."""
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SkidSteerSlipModel,
+                                                    SkidSteerSlipSettings, _speed_bounds)
+    rng = np.random.default_rng(seed)
+    t, s = _slip_samples(seed)
+    tp = np.sort(rng.choice(np.arange(0.1, 2.95, 0.05), size=k, replace=False)) + 0.003
+    sp = rng.uniform(-0.3, 0.5, size=(k, 2))
+    cfg = SkidSteerSlipSettings(speed_bound_braking_slip=-0.3 if bound else None)
+    a = run_with_pseudo_slip(t, s, cfg, tp, sp, np.full(k, cfg.slip_std))
+    b = run_filter(SkidSteerSlipModel(cfg), t, {**s, "slip_model": SensorSamples(tp, sp)},
+                   engine="numpy", store_covariance=True, step_bounds=_speed_bounds(
+                       t, s["wheels"], cfg), step_bound_movable=SPEED_BOUND_MOVABLE)
+    np.testing.assert_allclose(a.x, b.x, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(a.P, b.P, rtol=1e-9, atol=1e-14)
+    assert a.counts == b.counts
+
+
+@settings(max_examples=15, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), use_position=st.booleans())
+def test_the_adaptive_observer_of_a_mirrored_run_swaps_the_two_etas(seed, use_position):
+    """Seed 000 eq. 8 under the mirror (y -> -y, theta -> -theta, v_R <-> v_L, gains
+    l1 = l2 and lambda1 = lambda2): eta_R and eta_L trade places and the pose estimate is
+    mirrored, at every sample."""
+    from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+    rng = np.random.default_rng(seed)
+    n, d = 300, TRACK_M / 2
+    t = np.cumsum(rng.uniform(0.005, 0.015, n))
+    vr, vl = rng.uniform(0.2, 1.0) + 0.05 * rng.normal(size=n), \
+        rng.uniform(0.2, 1.0) + 0.05 * rng.normal(size=n)
+    er, el = rng.uniform(0.5, 1.0, 2)
+    w = (er * vr - el * vl) / (2 * d)
+    th = np.cumsum(w * np.r_[0.0, np.diff(t)]) + rng.uniform(-3, 3)
+    v = (er * vr + el * vl) / 2
+    x = np.cumsum(v * np.cos(th) * np.r_[0.0, np.diff(t)])
+    y = np.cumsum(v * np.sin(th) * np.r_[0.0, np.diff(t)])
+    cfg = AdaptiveObserverSettings(eta0=tuple(rng.uniform(0.5, 1.5, 2)),
+                                   use_position=use_position)
+    mirrored = AdaptiveObserverSettings(eta0=cfg.eta0[::-1], use_position=use_position)
+    a = run_adaptive_observer(t, np.column_stack([x, y, th]), vr, vl, cfg)
+    b = run_adaptive_observer(t, np.column_stack([x, -y, -th]), vl, vr, mirrored)
+    np.testing.assert_allclose(b.eta, a.eta[:, ::-1], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(b.pose_hat, a.pose_hat * [1.0, -1.0, -1.0], rtol=1e-9,
+                               atol=1e-9)
+
+
+# ----------------------------------------------------------- Joseph form against the textbook
+
+def _spd(rng, n, scale=1.0):
+    a = rng.normal(size=(n, n))
+    return scale * (a @ a.T + 1e-2 * np.eye(n))
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 6), m=st.integers(1, 5),
+       full_r=st.booleans())
+def test_joseph_update_equals_the_textbook_gain_covariance_and_nis(seed, n, m, full_r):
+    """correct() against seed 001 eqs. 4.9-4.12 written out with explicit inverses:
+    S = H P H^T + R, K = P H^T S^-1, x + K y, (I - K H) P (equal to the Joseph form for
+    this optimal gain), NIS = y^T S^-1 y and the per-row normalised innovation."""
+    from terrain.estimation.ekf import correct
+    rng = np.random.default_rng(seed)
+    x, P = rng.normal(size=n), _spd(rng, n)
+    H = rng.normal(size=(m, n))
+    R = _spd(rng, m, 0.1) if full_r else rng.uniform(0.05, 2.0, m)
+    Rm = R if full_r else np.diag(R)
+    y = rng.normal(size=m)
+    x1, P1, inn = correct(x, P, y, H, R)
+    S = H @ P @ H.T + Rm
+    K = P @ H.T @ np.linalg.inv(S)
+    np.testing.assert_allclose(inn.S, S, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(x1, x + K @ y, rtol=1e-8, atol=1e-10)
+    scale = np.abs(P).max()
+    np.testing.assert_allclose(P1, (np.eye(n) - K @ H) @ P, rtol=1e-7, atol=1e-9 * scale)
+    A = np.eye(n) - K @ H
+    np.testing.assert_allclose(P1, A @ P @ A.T + K @ Rm @ K.T, rtol=1e-7, atol=1e-9 * scale)
+    assert inn.nis == pytest.approx(y @ np.linalg.solve(S, y), rel=1e-8)
+    np.testing.assert_allclose(inn.normalised, y / np.sqrt(np.diag(S)), rtol=1e-12)
+    assert inn.dof == m and inn.accepted.all()
+    # the update never adds uncertainty: P - P1 is PSD
+    assert np.linalg.eigvalsh(P - P1)[0] >= -1e-9 * scale
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), p=st.floats(0.5, 0.9999), m=st.integers(1, 4))
+def test_the_gate_rejects_a_group_exactly_when_its_nis_exceeds_the_chi2_quantile(seed, p, m):
+    from scipy import stats
+
+    from terrain.estimation.ekf import Gate, correct
+    rng = np.random.default_rng(seed)
+    n = 3
+    x, P = rng.normal(size=n), _spd(rng, n)
+    H = rng.normal(size=(m, n))
+    R = rng.uniform(0.1, 1.0, m)
+    y = rng.normal(scale=rng.uniform(0.1, 10.0), size=m)
+    gate = Gate(p)
+    x1, P1, inn = correct(x, P, y, H, R, gate=gate)
+    S = H @ P @ H.T + np.diag(R)
+    d2 = y @ np.linalg.solve(S, y)
+    thr = stats.chi2.ppf(p, m)
+    assert gate.threshold(m) == pytest.approx(thr, rel=1e-12)
+    if abs(d2 - thr) > 1e-9 * thr:
+        assert inn.accepted.all() == (d2 <= thr)
+    if not inn.accepted.any():
+        np.testing.assert_array_equal(x1, x)
+        np.testing.assert_array_equal(P1, P)
+        assert np.isnan(inn.nis) and inn.dof == 0
+
+
+# ------------------------------------------------- consistency statistics against definitions
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), N=st.integers(1, 30), n=st.integers(1, 5),
+       a=st.floats(1e-3, 1e3))
+def test_nees_is_its_definition_and_invariant_to_a_change_of_units(seed, N, n, a):
+    """NEES_k = e_k^T P_k^-1 e_k step by step; scaling the errors by a (a change of unit)
+    and the covariances by a^2 leaves it unchanged."""
+    from terrain.estimation.consistency import nees
+    rng = np.random.default_rng(seed)
+    P = np.stack([_spd(rng, n) for _ in range(N)])
+    e = rng.normal(size=(N, n))
+    v = nees(e, P)
+    want = [e[k] @ np.linalg.inv(P[k]) @ e[k] for k in range(N)]
+    np.testing.assert_allclose(v, want, rtol=1e-8)
+    np.testing.assert_allclose(nees(a * e, a * a * P), v, rtol=1e-8)
+    assert (v >= 0).all()
+
+
+@FAST
+@given(dof=st.floats(0.5, 20), n=st.floats(1, 5000), p=st.floats(0.5, 0.999))
+def test_mean_chi2_bounds_are_the_quantiles_of_the_scaled_sum(dof, n, p):
+    """The mean of n chi2(dof) values, times n, is chi2(n dof): its two-sided p interval is
+    chi2.ppf((1 -+ p) / 2, n dof) / n, holds dof, and the bounds nest as p grows."""
+    from scipy import stats
+
+    from terrain.estimation.consistency import mean_chi2_bounds
+    lo, hi = mean_chi2_bounds(dof, n, p)
+    assert lo == pytest.approx(stats.chi2.ppf((1 - p) / 2, n * dof) / n, rel=1e-12)
+    assert hi == pytest.approx(stats.chi2.ppf((1 + p) / 2, n * dof) / n, rel=1e-12)
+    assert stats.chi2.cdf(hi * n, n * dof) - stats.chi2.cdf(lo * n, n * dof) == \
+        pytest.approx(p, abs=1e-9)
+    assert lo < dof < hi
+    lo2, hi2 = mean_chi2_bounds(dof, n, min(p + 0.0005, 0.9999))
+    assert lo2 <= lo and hi <= hi2
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), N=st.integers(1, 200), p=st.floats(0.5, 0.99))
+def test_chi2_test_mean_dof_and_pointwise_fraction_are_their_definitions(seed, N, p):
+    """Over the finite values with dof > 0: mean, mean dof, count, and the fraction inside
+    each value's own [chi2.ppf((1-p)/2, d_k), chi2.ppf((1+p)/2, d_k)] (scipy)."""
+    from scipy import stats
+
+    from terrain.estimation.consistency import chi2_test
+    rng = np.random.default_rng(seed)
+    d = rng.integers(0, 5, N).astype(float)
+    v = rng.chisquare(np.maximum(d, 1)) * rng.uniform(0.5, 2.0)
+    v[rng.uniform(size=N) < 0.1] = np.nan
+    res = chi2_test(v, d, p)
+    ok = np.isfinite(v) & (d > 0)
+    assert res.n_samples == int(ok.sum())
+    if not ok.any():
+        assert np.isnan(res.mean)
+        return
+    assert res.mean == pytest.approx(v[ok].mean(), rel=1e-12)
+    assert res.dof == pytest.approx(d[ok].mean(), rel=1e-12)
+    lo = stats.chi2.ppf((1 - p) / 2, d[ok])
+    hi = stats.chi2.ppf((1 + p) / 2, d[ok])
+    assert res.fraction_in_pointwise == pytest.approx(((v[ok] >= lo) & (v[ok] <= hi)).mean())
+    assert 1.0 <= res.n_effective <= res.n_samples or res.n_samples < 3
+    assert res.inside == (res.bounds[0] <= res.mean <= res.bounds[1])
+
+
+@FAST
+@given(v=st.floats(-3, 3).filter(lambda a: abs(a) > 0.06), w=st.floats(-0.5, 0.5),
+       s1=st.floats(-0.94, 0.94), s2=st.floats(-0.94, 0.94))
+def test_slip_model_rim_rows_give_back_the_state_slip_as_sae_slip(v, w, s1, s2):
+    """Each wheel row is the rim speed whose SAE slip (seed 001 eqs. 7.1-7.2, denominator
+    eq. 7.7, terrain.terramechanics.slip.sae_slip) over the side's ground speed
+    g = v -+ chi B w / 2 is the state's slip, forward or reverse; driving forward a positive
+    slip (traction) makes the rim the faster, a negative one (braking) the slower."""
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+    from terrain.terramechanics.slip import sae_slip
+    model = SkidSteerSlipModel()
+    lc = np.log(1.4)
+    x = np.array([v, w, 0.0, lc, s1, s2, 0.0, 0.0])
+    hx = model.h(x)
+    half = 1.4 * TRACK_M * w / 2
+    for rim, g, s in ((hx[0], v - half, s1), (hx[1], v + half, s2)):
+        if abs(g) < 1e-3:
+            continue
+        assert sae_slip(rim, g, dead_band_m_s=0.0) == pytest.approx(s, abs=1e-9)
+        if g > 0:
+            assert (rim > g) == (s > 0) or abs(s) < 1e-12
