@@ -78,13 +78,19 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
     ------
     ShapeError
         ``estimates`` not 2-D, ``truth`` of another shape (a single state is not broadcast
-        over the steps), or an angle column outside the ``n`` columns.
+        over the steps), an angle column that is not an integer (a boolean, a float) or
+        one outside the ``n`` columns.
     """
     x = np.asarray(estimates, dtype=float)
     t = np.asarray(truth, dtype=float)
     if x.ndim != 2 or t.shape != x.shape:
         raise ShapeError(f"estimates and truth must both be (N, n), got estimates {x.shape} "
                          f"and truth {t.shape}")
+    # (True was column 1 and 1.0 a bare IndexError: a column is an integer index)
+    wrong = [j for j in angle_columns if isinstance(j, (bool, np.bool_))
+             or not isinstance(j, (int, np.integer))]
+    if wrong:
+        raise ShapeError(f"angle_columns must hold integer column indices, got {wrong[0]!r}")
     bad = [j for j in angle_columns if not -x.shape[1] <= j < x.shape[1]]
     if bad:
         raise ShapeError(f"angle column {bad[0]} outside the {x.shape[1]} state columns")

@@ -370,3 +370,15 @@ def test_slip_model_rim_rows_give_back_the_state_slip_as_sae_slip(v, w, s1, s2):
         assert sae_slip(rim, g, dead_band_m_s=0.0) == pytest.approx(s, abs=1e-9)
         if g > 0:
             assert (rim > g) == (s > 0) or abs(s) < 1e-12
+
+
+@pytest.mark.parametrize("column", [True, 1.0, np.float64(0.0), "1"])
+def test_an_angle_column_that_is_not_an_integer_is_a_shape_error_naming_it(column):
+    """state_errors(..., angle_columns=(True,)) wrapped column 1 without a word and (1.0,)
+    stopped on numpy's bare IndexError ('only integers, slices ...')."""
+    from terrain.errors import ShapeError
+    from terrain.estimation.consistency import state_errors
+    with pytest.raises(ShapeError, match="angle_columns"):
+        state_errors(np.zeros((2, 2)), np.ones((2, 2)), (column,))
+    e = state_errors(np.zeros((2, 2)), np.full((2, 2), 4.0), (np.int64(1),))
+    np.testing.assert_allclose(e, [[-4.0, 2 * np.pi - 4.0]] * 2)
