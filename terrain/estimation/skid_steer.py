@@ -40,7 +40,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, ShapeError,
-                            config_numbers, config_positive)
+                            config_numbers, config_positive, holds_booleans)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
@@ -430,7 +430,8 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
     Raises
     ------
     ShapeError
-        ``windows`` not of shape ``(n, 3, n_samples)`` with ``n_samples >= 2``.
+        ``windows`` not of shape ``(n, 3, n_samples)`` with ``n_samples >= 2``, or holding
+        booleans.
     NonFiniteInputError
         A non-finite sample (cut windows around gaps; :func:`skid_steer_on_frame` skips them).
     ConfigError
@@ -438,6 +439,8 @@ def skid_steer_on_windows(windows: np.ndarray, rate_hz: float,
         (:func:`~terrain.estimation.runner.check_rate_hz`), or ``wheel_rate_hz`` not None and
         not a finite number > 0.
     """
+    if holds_booleans(windows):        # (a mask was read as speeds of 0 and 1 m/s)
+        raise ShapeError("windows must hold speeds (m/s) and yaw rates (rad/s), got booleans")
     W = np.asarray(windows, dtype=np.float64)
     if W.ndim != 3 or W.shape[1] != 3 or W.shape[2] < 2:
         raise ShapeError(f"windows must be (n_windows, 3, n_samples >= 2), got {W.shape}")

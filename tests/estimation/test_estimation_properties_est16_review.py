@@ -382,3 +382,14 @@ def test_an_angle_column_that_is_not_an_integer_is_a_shape_error_naming_it(colum
         state_errors(np.zeros((2, 2)), np.ones((2, 2)), (column,))
     e = state_errors(np.zeros((2, 2)), np.full((2, 2), 4.0), (np.int64(1),))
     np.testing.assert_allclose(e, [[-4.0, 2 * np.pi - 4.0]] * 2)
+
+
+def test_boolean_windows_are_refused_not_read_as_speeds_of_0_and_1():
+    """skid_steer_on_windows(np.ones((1, 3, 5), bool), 100.0) ran the filter on speeds of
+    1 m/s and a yaw rate of 1 rad/s (final yaw rate estimate 0.96 rad/s)."""
+    from terrain.errors import ShapeError
+    from terrain.estimation.skid_steer import skid_steer_on_windows
+    with pytest.raises(ShapeError, match="booleans"):
+        skid_steer_on_windows(np.ones((1, 3, 5), bool), 100.0)
+    x = skid_steer_on_windows(np.ones((1, 3, 5)), 100.0)[0]
+    assert x.shape == (1, 5, 4)
