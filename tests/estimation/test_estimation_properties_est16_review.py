@@ -393,3 +393,103 @@ def test_boolean_windows_are_refused_not_read_as_speeds_of_0_and_1():
         skid_steer_on_windows(np.ones((1, 3, 5), bool), 100.0)
     x = skid_steer_on_windows(np.ones((1, 3, 5)), 100.0)[0]
     assert x.shape == (1, 5, 4)
+
+
+def test_an_equality_bound_is_never_released_and_moves_the_correlated_state():
+    """lower == upper on state 0 (an equality) with x0 below it: its multiplier has the sign
+    of a lower bound while the state is held at a bound equal to its upper one; releasing it
+    cycled until the clip, which left the correlated state 1 where it was. The projection
+    is x - P[:, 0] (x0 - 0) / P00 (Simon & Chia 2002 eq. 13)."""
+    from terrain.estimation.ekf import project_to_bounds
+    P = np.array([[1.0, 0.6], [0.6, 1.0]])
+    x = np.array([-1.0, 0.5])
+    xc, active = project_to_bounds(x, P, np.array([0.0, -np.inf]), np.array([0.0, np.inf]))
+    np.testing.assert_allclose(xc, [0.0, 0.5 + 0.6], rtol=1e-12)
+    assert active.tolist() == [True, False]
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 60), kind=st.sampled_from(
+    ["ramp", "noise", "walk", "const", "alt"]))
+def test_effective_sample_size_is_between_one_and_the_count_of_finite_values(seed, n, kind):
+    """N / tau clipped to [1, N] (a short ramp has tau > N: its few samples still count as
+    one); non-finite values are dropped first."""
+    from terrain.estimation.consistency import effective_sample_size
+    rng = np.random.default_rng(seed)
+    x = {"ramp": np.arange(n, dtype=float), "noise": rng.normal(size=n),
+         "walk": np.cumsum(rng.normal(size=n)), "const": np.full(n, 2.0),
+         "alt": (-1.0) ** np.arange(n)}[kind]
+    x[rng.uniform(size=n) < 0.1] = np.nan
+    k = int(np.isfinite(x).sum())
+    ess = effective_sample_size(x)
+    assert 1.0 <= ess <= max(k, 1)
+
+
+def test_a_non_finite_drift_std_falls_back_to_the_window_pseudo_std():
+    """drift_std NaN at a window: that segment's slip drift is slip_psd + slip_psd_rel
+    pseudo_std^2 (documented fallback), the same run as with drift_std = pseudo_std there;
+    not slip_psd alone."""
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
+    t, s = _slip_samples(3)
+    tp = np.array([0.5, 1.0, 1.5, 2.0])
+    sp = np.full((4, 2), 0.1)
+    sd = np.array([0.05, 0.2, 0.1, 0.3])
+    cfg = SkidSteerSlipSettings(slip_psd_rel=5.0)
+    drift = np.array([0.1, np.nan, 0.2, np.nan])
+    a = run_with_pseudo_slip(t, s, cfg, tp, sp, sd, drift_std=drift)
+    filled = np.where(np.isfinite(drift), drift, sd)
+    b = run_with_pseudo_slip(t, s, cfg, tp, sp, sd, drift_std=filled)
+    np.testing.assert_array_equal(a.x, b.x)
+    c = run_with_pseudo_slip(t, s, cfg, tp, sp, sd, drift_std=np.nan_to_num(drift))
+    assert np.abs(c.P_diag[:, 4] - a.P_diag[:, 4]).max() > 1e-6
+
+
+@pytest.mark.parametrize("ratio", [2.5, 4.0])
+def test_an_observer_step_over_twice_the_median_is_corrected_over_one_median_step(ratio):
+    """Module docstring of terrain.estimation.observer: a step longer than twice the median
+    one is a gap; the correction of the sample before it is integrated over one median step
+    h and the rest is predicted with e = 0 (eq. 8, yaw-only: theta' = w_g(eta) + l3 e)."""
+    import math
+
+    from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+    h = 0.01
+    t = np.array([0.0, h, 2 * h, 2 * h + ratio * h])
+    vr, vl = np.array([1.0, 1.0, 1.1, 1.0]), np.array([0.6, 0.6, 0.5, 0.6])
+    theta = np.array([0.0, 0.004, 0.01, 0.02])
+    pose = np.column_stack([np.full(4, np.nan), np.full(4, np.nan), theta])
+    cfg = AdaptiveObserverSettings(use_position=False)
+    res = run_adaptive_observer(t, pose, vr, vl, cfg)
+    d, l3, lam = cfg.half_track_m, cfg.l_gains[2], cfg.lambda_gains
+    er, el = res.eta[2]
+    e = res.error[2, 2]
+    w = (vr[2] * er - vl[2] * el) / (2 * d)
+    th = res.pose_hat[2, 2] + h * (w + l3 * e)
+    er1 = min(max(er + h * lam[0] * vr[2] / (2 * d) * e, 0.02), 2.0)
+    el1 = min(max(el - h * lam[1] * vl[2] / (2 * d) * e, 0.02), 2.0)
+    rest = (ratio - 1.0) * h
+    th += rest * (vr[2] * er1 - vl[2] * el1) / (2 * d)
+    np.testing.assert_allclose(res.eta[3], [er1, el1], rtol=1e-12)
+    assert res.pose_hat[3, 2] == pytest.approx(th, rel=1e-12, abs=1e-15)
+    assert math.isfinite(res.error[3, 2])
+
+
+@settings(max_examples=6, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), engine=st.sampled_from(["numpy", "numba"]))
+def test_a_skid_steer_run_in_millimetres_is_the_run_in_metres_scaled(seed, engine):
+    """Every length in mm (speeds, track, wheel noise, speed prior, acceleration density in
+    mm^2): v_bx and its std scale by 1000; yaw rate, bias, ln(chi) and the NIS are the
+    same (no hidden constant in metres)."""
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+    t, wheels, gyro = _skid_run(seed)
+    m = SkidSteerSettings(chi0=1.4)
+    mm = SkidSteerSettings(chi0=1.4, track_m=m.track_m * 1e3, wheel_std_m_s=m.wheel_std_m_s
+                           * 1e3, accel_psd=m.accel_psd * 1e6, v0_std=m.v0_std * 1e3)
+    gy = SensorSamples(t, gyro[:, None])
+    a = run_filter(SkidSteerModel(m), t, {"wheels": SensorSamples(t, wheels), "gyro": gy},
+                   engine=engine)
+    b = run_filter(SkidSteerModel(mm), t, {"wheels": SensorSamples(t, wheels * 1e3),
+                                           "gyro": gy}, engine=engine)
+    np.testing.assert_allclose(b.x, a.x * [1e3, 1, 1, 1], rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(b.P_diag, a.P_diag * [1e6, 1, 1, 1], rtol=1e-8, atol=1e-15)
+    np.testing.assert_allclose(b.nis, a.nis, rtol=1e-8)
