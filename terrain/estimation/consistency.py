@@ -208,8 +208,8 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     _check_max_lag("integrated_autocorrelation_time", max_lag)
     x = np.asarray(series, dtype=float)
     n = x.shape[-1]
-    if n < 3:
-        return np.ones(x.shape[:-1])
+    if n < 3:      # (a row holding NaN or inf was given 1 here too)
+        return np.where(np.isfinite(x).all(axis=-1), 1.0, np.nan)
     d = x - x.mean(axis=-1, keepdims=True)
     var = np.einsum("...i,...i->...", d, d) / n
     nfft = 1 << int(np.ceil(np.log2(2 * n)))

@@ -493,3 +493,23 @@ def test_a_skid_steer_run_in_millimetres_is_the_run_in_metres_scaled(seed, engin
     np.testing.assert_allclose(b.x, a.x * [1e3, 1, 1, 1], rtol=1e-8, atol=1e-12)
     np.testing.assert_allclose(b.P_diag, a.P_diag * [1e6, 1, 1, 1], rtol=1e-8, atol=1e-15)
     np.testing.assert_allclose(b.nis, a.nis, rtol=1e-8)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), n=st.integers(0, 8), rows=st.integers(1, 3))
+def test_autocorrelation_time_of_a_row_holding_a_non_finite_value_is_nan_at_any_length(
+        seed, n, rows):
+    """Documented: NaN for a row holding a non-finite value, whatever its length; a row of
+    fewer than 3 samples gave 1 (independent samples) even with a NaN in it:
+    integrated_autocorrelation_time([nan, 1.0]) was 1.0 (with 3 samples NaN)."""
+    from terrain.estimation.consistency import integrated_autocorrelation_time
+    rng = np.random.default_rng(seed)
+    x = rng.normal(size=(rows, n))
+    x[rng.uniform(size=x.shape) < 0.3] = rng.choice([np.nan, np.inf, -np.inf])
+    tau = integrated_autocorrelation_time(x)
+    assert tau.shape == (rows,)
+    bad = ~np.isfinite(x).all(axis=1)
+    assert np.isnan(tau[bad]).all()
+    assert (tau[~bad] >= 1.0).all()
+    if n < 3:
+        assert (tau[~bad] == 1.0).all()
