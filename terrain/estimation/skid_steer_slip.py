@@ -711,11 +711,14 @@ def _concatenate(parts: list[EKFResult]) -> EKFResult:
                     agg[k] = v
     cat = np.concatenate
     meta = dict(first.meta)
-    meta.update(n_steps=int(sum(p.t_s.size for p in parts)), segments=len(parts))
+    t_s = cat([p.t_s for p in parts])
+    # the rate of the whole grid (a first segment of one step has no step: its rate was NaN)
+    meta.update(n_steps=int(t_s.size), segments=len(parts),
+                rate_hz=float(1.0 / np.median(np.diff(t_s))) if t_s.size > 1 else float("nan"))
     for key in ("step_bounds_active", "state_bounds_clipped"):
         if key in meta:
             meta[key] = int(sum(p.meta[key] for p in parts))
-    return EKFResult(t_s=cat([p.t_s for p in parts]), x=cat([p.x for p in parts]),
+    return EKFResult(t_s=t_s, x=cat([p.x for p in parts]),
                      P_diag=cat([p.P_diag for p in parts]), P=cat([p.P for p in parts]),
                      y=cat([p.y for p in parts]), S_diag=cat([p.S_diag for p in parts]),
                      accepted=cat([p.accepted for p in parts]), nis=cat([p.nis for p in parts]),

@@ -513,3 +513,19 @@ def test_autocorrelation_time_of_a_row_holding_a_non_finite_value_is_nan_at_any_
     assert (tau[~bad] >= 1.0).all()
     if n < 3:
         assert (tau[~bad] == 1.0).all()
+
+
+@settings(max_examples=8, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), at=st.lists(st.integers(0, 150), min_size=1,
+                                                   max_size=5, unique=True))
+def test_a_segmented_run_reports_the_rate_and_step_count_of_its_whole_grid(seed, at):
+    """meta of run_with_pseudo_slip: n_steps and rate_hz of the whole grid, wherever the
+    pseudo-measurements cut it; one on the first step (a first segment of one step) gave
+    rate_hz NaN."""
+    t, s = _slip_samples(seed)
+    tp = t[np.sort(at)]
+    res = run_with_pseudo_slip(t, s, pseudo_t_s=tp, pseudo_slip=np.full((tp.size, 2), 0.1),
+                               pseudo_std=np.full(tp.size, 0.1))
+    assert res.meta["n_steps"] == t.size
+    assert res.meta["rate_hz"] == pytest.approx(50.0, rel=1e-9)
+    np.testing.assert_array_equal(res.t_s, t)
