@@ -52,7 +52,8 @@ def ema_filter(values: np.ndarray, alpha: float,
     Raises
     ------
     EstimationError
-        ``alpha`` not a number in [0, 1) (a boolean or text included), or an angle column
+        ``alpha`` not a number in [0, 1) (a boolean or text included), ``values`` not of
+        shape ``(k,)`` or ``(k, d)``, or an angle column that is not an integer or lies
         outside the values' columns.
 
     Examples
@@ -69,7 +70,13 @@ def ema_filter(values: np.ndarray, alpha: float,
     if not ok:
         raise EstimationError(f"EMA alpha must be a number in [0, 1), got {alpha!r}")
     v = np.asarray(values, dtype=float)
+    if v.ndim not in (1, 2):        # (a scalar was a bare IndexError, (k, d, e) taken as 1 column)
+        raise EstimationError(f"EMA values must have shape (k,) or (k, d), got {v.shape}")
     n_columns = v.shape[1] if v.ndim == 2 else 1
+    if any(isinstance(c, (bool, np.bool_)) or not isinstance(c, (int, np.integer))
+           for c in angle_columns):     # (0.5 passed as column 0, then a bare IndexError)
+        raise EstimationError(f"EMA angle columns must be integer column indices, got "
+                              f"{list(angle_columns)}")
     if any(not 0 <= int(c) < n_columns for c in angle_columns):
         raise EstimationError(f"EMA angle columns {list(angle_columns)} outside the "
                               f"{n_columns} column(s) of the values")

@@ -529,3 +529,17 @@ def test_a_segmented_run_reports_the_rate_and_step_count_of_its_whole_grid(seed,
     assert res.meta["n_steps"] == t.size
     assert res.meta["rate_hz"] == pytest.approx(50.0, rel=1e-9)
     np.testing.assert_array_equal(res.t_s, t)
+
+
+@pytest.mark.parametrize("values, columns", [(5.0, ()), (np.ones((3, 2, 2)), ()),
+                                             (np.ones((3, 2)), (0.5,)),
+                                             (np.ones((3, 2)), (True,))])
+def test_ema_input_of_another_shape_or_a_non_integer_angle_column_is_an_estimation_error(
+        values, columns):
+    """ema_filter(5.0, 0.5) and angle_columns=(0.5,) stopped on numpy's bare IndexError;
+    a (3, 2, 2) array was filtered as one column; True was taken as column 1."""
+    from terrain.errors import EstimationError
+    from terrain.estimation.prefilter import ema_filter
+    with pytest.raises(EstimationError, match="EMA"):
+        ema_filter(values, 0.5, columns)
+    np.testing.assert_allclose(ema_filter(np.ones((3, 2)), 0.5, (np.int64(1),)), 1.0)
