@@ -543,3 +543,36 @@ def test_ema_input_of_another_shape_or_a_non_integer_angle_column_is_an_estimati
     with pytest.raises(EstimationError, match="EMA"):
         ema_filter(values, 0.5, columns)
     np.testing.assert_allclose(ema_filter(np.ones((3, 2)), 0.5, (np.int64(1),)), 1.0)
+
+
+def test_projection_with_two_nearly_collinear_active_states_still_projects():
+    """Two violated states correlated at 0.9999 (cond(P_aa) 2e4, far below the 1e12 at
+    which the projection gives up for a clip): the third, free state moves by
+    -P_fa P_aa^-1 (x_a - d) (Simon & Chia 2002 eq. 13), not left where a clip leaves it."""
+    from terrain.estimation.ekf import project_to_bounds
+    P = np.array([[1.0, 0.9999, 0.5], [0.9999, 1.0, 0.5], [0.5, 0.5, 1.0]])
+    assert np.linalg.eigvalsh(P)[0] > 0
+    x = np.array([2.0, 2.0, 0.0])
+    lo, up = np.array([-1.0, -1.0, -np.inf]), np.array([1.0, 1.0, np.inf])
+    xc, active = project_to_bounds(x, P, lo, up)
+    lam = np.linalg.solve(P[:2, :2], x[:2] - 1.0)
+    assert active.tolist() == [True, True, False]
+    np.testing.assert_allclose(xc, [1.0, 1.0, -P[2, :2] @ lam], rtol=1e-9)
+    assert xc[2] == pytest.approx(-0.50003, rel=1e-4)
+
+
+@pytest.mark.parametrize("slip", [0.9, 0.93, 0.945, -0.93])
+def test_slip_model_wheel_rows_keep_their_slip_column_just_inside_max_slip(slip):
+    """Only |s| > MAX_SLIP (0.95) is clipped with no slip column: at 0.9 < |s| < 0.95 the
+    column is d rim / d s of eqs. 7.1-7.2 (|g| / (1 - q)^2 in traction, |g| in braking)."""
+    from terrain.estimation.model import finite_difference_jacobian
+    from terrain.estimation.skid_steer_slip import SkidSteerSlipModel
+    model = SkidSteerSlipModel()
+    x = np.array([1.0, 0.3, 0.0, np.log(1.4), slip, -slip, 0.0, 0.0])
+    hx, H = model.observation(x)
+    half = 1.4 * TRACK_M * 0.3 / 2
+    for i, (g, s) in enumerate(((1.0 - half, slip), (1.0 + half, -slip))):
+        want = g / (1 - s) ** 2 if s >= 0 else g
+        assert H[i, 4 + i] == pytest.approx(want, rel=1e-12)
+    np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x, eps=1e-7), rtol=1e-5,
+                               atol=1e-6)
