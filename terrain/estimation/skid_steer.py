@@ -39,8 +39,8 @@ from typing import TYPE_CHECKING, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, ShapeError,
-                            config_numbers, config_positive, holds_booleans)
+from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, NonNumericError,
+                            ShapeError, config_numbers, config_positive, holds_booleans)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
@@ -374,13 +374,19 @@ def skid_steer_on_frame(frame: pd.DataFrame, settings: SkidSteerSettings = SkidS
     Raises
     ------
     DataFormatError
-        Missing columns.
+        Missing columns, or a column that is not numeric (booleans, text:
+        :class:`~terrain.errors.NonNumericError`, the column named).
     ConfigError
         ``wheel_rate_hz`` not None and not a finite number > 0 (NaN, 0, negative, inf).
     """
     missing = [c for c in (TIME, "vel_l", "vel_r", "wz") if c not in frame.columns]
     if missing:
         raise DataFormatError(f"aligned frame lacks columns {missing}", None, missing[0])
+    for c in (TIME, "vel_l", "vel_r", "wz"):
+        # (booleans were read as 0 and 1, text as numbers or numpy's bare ValueError)
+        if holds_booleans(frame[c]) or not pd.api.types.is_numeric_dtype(frame[c]):
+            raise NonNumericError(f"aligned frame column holds {frame[c].dtype} values, not "
+                                  "numbers", None, c)
     t = frame[TIME].to_numpy(float)
     rate = float(1.0 / np.median(np.diff(t))) if t.size > 1 else 1.0
     scale = wheel_r_scale(rate, wheel_rate_hz)

@@ -576,3 +576,21 @@ def test_slip_model_wheel_rows_keep_their_slip_column_just_inside_max_slip(slip)
         assert H[i, 4 + i] == pytest.approx(want, rel=1e-12)
     np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x, eps=1e-7), rtol=1e-5,
                                atol=1e-6)
+
+
+@pytest.mark.parametrize("column, values", [("vel_l", [True, False, True]),
+                                            ("wz", ["0", "0", "0"]), ("vel_r", ["a", 1, 1]),
+                                            ("t_s", [False, True, True])])
+def test_a_non_numeric_column_of_an_aligned_frame_is_named(column, values):
+    """skid_steer_on_frame read a boolean vel_l as speeds of 0 and 1 m/s and the text '0' as
+    a number, and stopped on numpy's bare ValueError for 'a'."""
+    import pandas as pd
+
+    from terrain.errors import NonNumericError
+    from terrain.estimation.skid_steer import skid_steer_on_frame
+    frame = pd.DataFrame({"t_s": [0.0, 0.01, 0.02], "vel_l": [1.0] * 3, "vel_r": [1.0] * 3,
+                          "wz": [0.0] * 3})
+    assert np.isfinite(skid_steer_on_frame(frame).x).all()
+    frame[column] = pd.Series(values, dtype=object if column != "vel_l" else bool)
+    with pytest.raises(NonNumericError, match=column):
+        skid_steer_on_frame(frame)
