@@ -301,7 +301,16 @@ def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m
     -------
     ndarray, shape (N, 2)
         ``eta_R, eta_L``.
+
+    Raises
+    ------
+    ConfigError
+        ``half_track_m`` not a finite number > 0, or ``min_speed_m_s`` not a finite number
+        >= 0 (NaN, a boolean or text included).
     """
+    # (a NaN track or speed floor made every eta NaN, a negative track swapped the sides)
+    config_positive("eta_from_truth", half_track_m=half_track_m)
+    config_positive("eta_from_truth", allow_zero=True, min_speed_m_s=min_speed_m_s)
     v = np.asarray(v_body_m_s, dtype=float)
     w = np.asarray(yaw_rate_rad_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)

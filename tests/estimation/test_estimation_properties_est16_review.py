@@ -594,3 +594,18 @@ def test_a_non_numeric_column_of_an_aligned_frame_is_named(column, values):
     frame[column] = pd.Series(values, dtype=object if column != "vel_l" else bool)
     with pytest.raises(NonNumericError, match=column):
         skid_steer_on_frame(frame)
+
+
+@pytest.mark.parametrize("kwargs", [{"half_track_m": -0.3}, {"half_track_m": np.nan},
+                                    {"half_track_m": 0.0}, {"half_track_m": True},
+                                    {"half_track_m": 0.3, "min_speed_m_s": np.nan},
+                                    {"half_track_m": 0.3, "min_speed_m_s": -1.0}])
+def test_eta_from_truth_refuses_a_track_or_speed_floor_that_is_not_a_length(kwargs):
+    """A NaN half track or speed floor gave eta NaN everywhere and a negative half track
+    swapped the sides (eta_R 0.7 and eta_L 1.3 for 1.3 and 0.7), without a word."""
+    from terrain.errors import ConfigError
+    from terrain.estimation.observer import eta_from_truth
+    ones = np.ones(2)
+    with pytest.raises(ConfigError, match="eta_from_truth"):
+        eta_from_truth(ones, ones, ones, ones, **kwargs)
+    np.testing.assert_allclose(eta_from_truth(ones, ones, ones, ones, 0.3), [[1.3, 0.7]] * 2)
