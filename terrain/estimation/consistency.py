@@ -17,9 +17,17 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from terrain.errors import (ConfigError, CovarianceError, ShapeError, config_numbers,
-                            config_positive, first_items)
+from terrain.errors import (ConfigError, CovarianceError, EstimationError, ShapeError,
+                            config_numbers, config_positive, first_items, holds_booleans)
 from terrain.estimation.model import wrap_angle
+
+
+def _refuse_booleans(owner: str, **arrays) -> None:
+    """Refuse an array of booleans where numbers are meant (a mask passed by mistake was
+    read as errors, statistics or degrees of freedom of 0 and 1)."""
+    for name, a in arrays.items():
+        if holds_booleans(a):
+            raise EstimationError(f"{owner}: {name} must hold numbers, got booleans")
 
 
 def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
@@ -43,7 +51,10 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     CovarianceError
         A covariance that is singular (e.g. a state with zero variance); the message names
         the steps.
+    EstimationError
+        Booleans given for the errors or the covariances.
     """
+    _refuse_booleans("nees", errors=errors, covariances=covariances)
     e = np.asarray(errors, dtype=float)
     P = np.asarray(covariances, dtype=float)
     if e.ndim != 2 or P.shape != (e.shape[0], e.shape[1], e.shape[1]):
@@ -80,7 +91,10 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
         ``estimates`` not 2-D, ``truth`` of another shape (a single state is not broadcast
         over the steps), an angle column that is not an integer (a boolean, a float) or
         one outside the ``n`` columns.
+    EstimationError
+        Booleans given for the estimates or the truth.
     """
+    _refuse_booleans("state_errors", estimates=estimates, truth=truth)
     x = np.asarray(estimates, dtype=float)
     t = np.asarray(truth, dtype=float)
     if x.ndim != 2 or t.shape != x.shape:
@@ -338,8 +352,11 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
         (:func:`mean_chi2_bounds`).
     ShapeError
         ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
+    EstimationError
+        Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1).
     """
     _check_probability(probability)
+    _refuse_booleans("chi2_test", values=values, dof=dof)
     v = np.asarray(values, dtype=float)
     dof = np.asarray(dof, dtype=float)
     if v.ndim != 1 or dof.shape not in ((), v.shape):

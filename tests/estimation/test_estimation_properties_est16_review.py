@@ -609,3 +609,21 @@ def test_eta_from_truth_refuses_a_track_or_speed_floor_that_is_not_a_length(kwar
     with pytest.raises(ConfigError, match="eta_from_truth"):
         eta_from_truth(ones, ones, ones, ones, **kwargs)
     np.testing.assert_allclose(eta_from_truth(ones, ones, ones, ones, 0.3), [[1.3, 0.7]] * 2)
+
+
+def test_consistency_statistics_refuse_booleans_where_numbers_are_meant():
+    """chi2_test([True, False, True], 1) gave a mean NIS of 0.67, nees of a boolean error
+    2.0 and state_errors of boolean estimates differences of 0 and 1, as if a mask were
+    data."""
+    from terrain.errors import EstimationError
+    from terrain.estimation.consistency import chi2_test, nees, state_errors
+    mask = np.array([True, False, True])
+    with pytest.raises(EstimationError, match="chi2_test: values"):
+        chi2_test(mask, 1)
+    with pytest.raises(EstimationError, match="chi2_test: dof"):
+        chi2_test(np.ones(3), mask)
+    with pytest.raises(EstimationError, match="nees: errors"):
+        nees(np.ones((1, 2), bool), np.eye(2)[None])
+    with pytest.raises(EstimationError, match="state_errors: truth"):
+        state_errors(np.zeros((2, 2)), np.ones((2, 2), bool))
+    assert chi2_test(np.array([1.0, 0.5, 2.0]), np.array([1, 1, 2])).n_samples == 3
