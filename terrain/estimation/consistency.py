@@ -217,9 +217,15 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     Raises
     ------
     ConfigError
-        ``max_lag`` not a number >= 1 (a negative one summed nearly every lag).
+        ``max_lag`` not a number >= 1 (a negative one summed nearly every lag), or
+        ``threshold`` not a finite real number (NaN, a boolean, text).
     """
     _check_max_lag("integrated_autocorrelation_time", max_lag)
+    # (NaN stopped the sum at lag 1 without a word: tau 1, independent samples)
+    config_numbers("integrated_autocorrelation_time", threshold=threshold)
+    if not np.isfinite(threshold):
+        raise ConfigError(f"integrated_autocorrelation_time: threshold must be a finite "
+                          f"autocorrelation, e.g. 0.05, got {threshold!r}")
     x = np.asarray(series, dtype=float)
     n = x.shape[-1]
     if n < 3:      # (a row holding NaN or inf was given 1 here too)

@@ -627,3 +627,17 @@ def test_consistency_statistics_refuse_booleans_where_numbers_are_meant():
     with pytest.raises(EstimationError, match="state_errors: truth"):
         state_errors(np.zeros((2, 2)), np.ones((2, 2), bool))
     assert chi2_test(np.array([1.0, 0.5, 2.0]), np.array([1, 1, 2])).n_samples == 3
+
+
+@pytest.mark.parametrize("threshold", [np.nan, np.inf, True, "0.05", None])
+def test_an_autocorrelation_threshold_that_is_not_a_finite_number_is_refused(threshold):
+    """threshold=NaN stopped the sum at the first lag without a word (tau 1 for an AR(1)
+    series of tau 9)."""
+    from scipy import signal
+
+    from terrain.errors import ConfigError
+    from terrain.estimation.consistency import integrated_autocorrelation_time
+    ar = signal.lfilter([1.0], [1.0, -0.8], np.random.default_rng(5).standard_normal(5000))
+    with pytest.raises(ConfigError, match="threshold"):
+        integrated_autocorrelation_time(ar, 2000, threshold)
+    assert integrated_autocorrelation_time(ar, 2000, 0.05) == pytest.approx(9.0, rel=0.2)
