@@ -696,3 +696,17 @@ def test_sensor_nis_of_the_only_sensor_at_a_step_is_the_step_nis(seed, engine):
     only[::4] = False
     np.testing.assert_allclose(res.sensor_nis("gyro")[only], res.nis[only], rtol=1e-12)
     assert (res.dof[only] == 1).all() and (res.dof[~only] == 3).all()
+
+
+@pytest.mark.parametrize("which", ["pose", "v_right_m_s", "v_left_m_s"])
+def test_the_adaptive_observer_refuses_booleans_for_a_pose_or_a_speed(which):
+    """run_adaptive_observer ran on a boolean pose (a pose of 0 and 1 m / rad: eta 0.985)
+    or boolean track speeds, as if a mask were data."""
+    from terrain.errors import ShapeError
+    from terrain.estimation.observer import run_adaptive_observer
+    t = np.arange(5) * 0.01
+    args = {"pose": np.zeros((5, 3)), "v_right_m_s": np.ones(5), "v_left_m_s": np.ones(5)}
+    assert np.isfinite(run_adaptive_observer(t, **args).eta).all()
+    args[which] = args[which].astype(bool)
+    with pytest.raises(ShapeError, match=which):
+        run_adaptive_observer(t, **args)
