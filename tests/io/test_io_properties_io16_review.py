@@ -1,0 +1,199 @@
+"""Property tests of the readers, the writer, the alignment and the input report (review io16).
+
+Not covered by the earlier property files (``test_io_properties_io14.py``,
+``test_reader_properties.py``, ``test_csv_round_trip_properties.py``):
+
+* extreme magnitudes (subnormals, the float64 maximum) and a negative zero survive a write
+  and a read, the sign of zero included;
+* the readers' fast path (every column read, every cell a number) and their strict path (an
+  extra column makes it per-column) read any spelling of a number alike, bit for bit, and as
+  Python's ``float`` does;
+* the gaps a reader lists are exactly where :func:`align_streams` puts NaN (a filtered and an
+  unfiltered stream), and nowhere else; stream order only permutes the aligned columns;
+* :func:`merged_gaps` and the input report's gap count and seconds equal a brute-force union
+  of the listed intervals.
+"""
+
+from __future__ import annotations
+
+import tempfile
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from terrain.io.align import align_streams
+from terrain.io.measured import read_runs_dir, read_stream_csv
+from terrain.io.report import input_report, merged_gaps
+from terrain.io.writer import write_run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+
+FAST = settings(max_examples=25, deadline=None, derandomize=True)
+
+
+def _quiet(fn, *args, **kwargs):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")   # plausibility warnings of generated values
+        return fn(*args, **kwargs)
+
+
+def _husky_run(extra: dict[str, pd.DataFrame] | None = None, imu_extra=None, n_imu=200,
+               n_wheels=20, t_imu=None, t_wheels=None) -> Run:
+    """A plausible Husky run (IMU 100 Hz, wheels 10 Hz) with extra streams."""
+    rng = np.random.default_rng(7)
+    t_i = np.arange(n_imu) / 100.0 if t_imu is None else t_imu
+    t_w = np.arange(n_wheels) / 10.0 if t_wheels is None else t_wheels
+    imu = pd.DataFrame({TIME: t_i, **{c: rng.normal(0.0, 0.05, t_i.size) for c in IMU_CHANNELS}})
+    imu["az"] += 9.81
+    for name in imu_extra or ():
+        imu[name] = 1.0
+    wheels = pd.DataFrame({TIME: t_w, **{c: rng.uniform(0.1, 0.5 if "vel" in c else 10.0,
+                                                        t_w.size)
+                                         for c in WHEEL_CHANNELS}})
+    return Run(run_id="g/SNOW/00", dataset="g", terrain="SNOW",
+               streams={"imu": imu, "wheels": wheels, **(extra or {})}, vehicle="husky",
+               source="", meta={})
+
+
+# --- extreme magnitudes --------------------------------------------------------------------
+
+_extreme = st.one_of(
+    st.sampled_from([0.0, -0.0, 5e-324, -5e-324, 2.2250738585072014e-308,
+                     1.7976931348623157e308, -1.7976931348623157e308, 1e-310, 9.999999995e-5,
+                     0.1, 1 / 3]),
+    st.floats(allow_nan=False, allow_infinity=False),
+    st.floats(min_value=-1e-300, max_value=1e-300))
+
+
+@FAST
+@given(values=st.lists(_extreme, min_size=2, max_size=30), t0=st.sampled_from([0.0, 1.7e9]))
+def test_extreme_magnitudes_and_negative_zero_read_back(values, t0):
+    n = len(values)
+    t = t0 + np.arange(n) / 10.0
+    v = np.array(values)
+    run = _husky_run({"truth": pd.DataFrame({TIME: t, "v": v})}, t_wheels=t,
+                     n_imu=0, t_imu=t0 + np.arange(10 * n) / 100.0)
+    with tempfile.TemporaryDirectory() as tmp:
+        write_run(run, tmp, 0)
+        (back,) = _quiet(read_runs_dir, tmp)
+    got = back.streams["truth"]["v"].to_numpy()
+    np.testing.assert_array_equal(np.signbit(got), np.signbit(v))   # -0.0 stays -0.0
+    np.testing.assert_allclose(got, v, rtol=5e-9, atol=0)
+    assert back.meta["repaired"] == {}
+
+
+# --- fast path and strict path ---------------------------------------------------------------
+
+def _spellings(x: float) -> st.SearchStrategy[str]:
+    return st.sampled_from([repr(x), f"{x:.17g}", f"{x:.17e}", f"{x:.17E}", f"{x:+.17g}",
+                            f" {x!r} ", f"{x:.25f}", f"{x:.9g}", f"{x:.40e}"])
+
+
+@st.composite
+def number_columns(draw):
+    n = draw(st.integers(2, 12))
+    values = draw(st.lists(st.floats(-1e6, 1e6) | st.floats(-1e-6, 1e-6), min_size=n,
+                           max_size=n))
+    return [draw(_spellings(x)) for x in values]
+
+
+@FAST
+@given(cells=number_columns())
+def test_fast_and_strict_paths_read_every_spelling_alike(tmp_path_factory, cells):
+    """The same cells read through the fast path (every column read) and the strict path
+    (an extra column makes the reader go column by column) are bit-identical, and equal to
+    Python's ``float`` of each cell."""
+    folder = tmp_path_factory.mktemp("paths")
+    n = len(cells)
+    times = [f"{k / 10:.9g}" for k in range(n)]
+    plain, extra = folder / "truth_00.csv", folder / "truth_01.csv"
+    plain.write_text("time,v\n" + "".join(f"{a},{b}\n" for a, b in zip(times, cells)))
+    extra.write_text("time,v,note\n" + "".join(f"{a},{b},x\n" for a, b in zip(times, cells)))
+    fast, _ = read_stream_csv(plain, "truth")
+    strict, _ = read_stream_csv(extra, "truth")
+    want = np.array([float(c) for c in cells])
+    assert np.array_equal(fast["v"].to_numpy(), want)
+    assert np.array_equal(strict["v"].to_numpy(), want)
+    np.testing.assert_array_equal(np.signbit(fast["v"].to_numpy()), np.signbit(want))
+    np.testing.assert_array_equal(np.signbit(strict["v"].to_numpy()), np.signbit(want))
+
+
+# --- reader gaps and alignment NaN ---------------------------------------------------------
+
+@st.composite
+def gapped_runs(draw):
+    """IMU at 100 Hz (filtered on a 25 Hz grid) and wheels at 10 Hz (not filtered), each
+    with a few holes of random length, as the measured files would hold them."""
+    rng = np.random.default_rng(draw(st.integers(0, 2**32 - 1)))
+
+    def holes(n, count):
+        keep = np.ones(n, dtype=bool)
+        for _ in range(count):
+            a = int(rng.integers(3, n - 10))
+            keep[a:a + int(rng.integers(1, 8))] = False
+        return keep
+
+    t_i = np.arange(600) / 100.0
+    t_w = np.arange(60) / 10.0
+    t_i = t_i[holes(600, draw(st.integers(0, 3)))]
+    t_w = t_w[holes(60, draw(st.integers(0, 3)))]
+    return _husky_run(t_imu=t_i, t_wheels=t_w)
+
+
+@FAST
+@given(run=gapped_runs())
+def test_the_gaps_a_reader_lists_are_exactly_the_nan_of_the_aligned_frame(run):
+    with tempfile.TemporaryDirectory() as tmp:
+        write_run(run, tmp, 0)
+        (back,) = _quiet(read_runs_dir, tmp)
+    frame = align_streams(back, rate_hz=25.0)
+    grid = frame[TIME].to_numpy()
+    for stream, channels in (("imu", IMU_CHANNELS), ("wheels", WHEEL_CHANNELS)):
+        inside = np.zeros(grid.size, dtype=bool)
+        for a, b in back.meta["gaps"].get(stream, []):
+            inside |= (grid > a) & (grid < b)
+        nan = np.isnan(frame[list(channels)].to_numpy())
+        for k in range(nan.shape[1]):
+            np.testing.assert_array_equal(nan[:, k], inside, err_msg=f"{stream}")
+
+
+@FAST
+@given(run=gapped_runs(), rate=st.sampled_from([10.0, 25.0, 50.0]))
+def test_stream_order_only_permutes_the_aligned_columns(run, rate):
+    ab = align_streams(run, ("imu", "wheels"), rate_hz=rate)
+    ba = align_streams(run, ("wheels", "imu"), rate_hz=rate)
+    assert list(ba.columns) == [TIME, *WHEEL_CHANNELS, *IMU_CHANNELS]
+    pd.testing.assert_frame_equal(ba[list(ab.columns)], ab, check_exact=True)
+
+
+# --- merged gaps and the input report ------------------------------------------------------
+
+_interval = st.tuples(st.integers(0, 40), st.integers(1, 10)).map(
+    lambda p: (p[0] / 4, (p[0] + p[1]) / 4))
+
+
+def _brute_union(intervals):
+    """Components of the union of closed intervals on the quarter-second lattice."""
+    covered = np.zeros(4 * 60 + 2, dtype=bool)   # quarter-points, ends included
+    for a, b in intervals:
+        covered[int(a * 8):int(b * 8) + 1] = True   # eighth-points: touching ends join
+    edges = np.flatnonzero(np.diff(np.r_[0, covered.astype(int), 0]))
+    return [(s / 8, (e - 1) / 8) for s, e in zip(edges[::2], edges[1::2])]
+
+
+@FAST
+@given(gaps=st.dictionaries(st.sampled_from(["imu", "wheels", "truth"]),
+                            st.lists(_interval, max_size=5), max_size=3))
+def test_merged_gaps_and_the_report_equal_a_brute_force_union(gaps):
+    want = _brute_union([g for spans in gaps.values() for g in spans])
+    assert merged_gaps(gaps) == want
+    run = Run(run_id="g/SNOW/00", dataset="g", terrain="SNOW", streams={}, source="",
+              meta={"gaps": gaps})
+    report = input_report([run])
+    row = report.table.iloc[0]
+    assert row["gaps"] == len(want)
+    assert row["gap_s"] == pytest.approx(sum(b - a for a, b in want))
+    assert report.metrics()["input_gaps"] == len(want)
