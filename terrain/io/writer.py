@@ -217,6 +217,30 @@ def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
                     "spaces around them, none a number, empty or a non-finite word)")
 
 
+def _name_read_back(name, first: bool) -> bool:
+    """Whether a column name reads back as written: the readers split the header line on
+    commas without unquoting, strip every name, end a line at LF or CR, skip a line led by
+    ``#`` and drop a leading byte-order mark; a name that is not text comes back as text
+    (``0`` as ``'0'``) and an empty one is not read."""
+    if not isinstance(name, str) or not name or name != name.strip():
+        return False
+    if any(c in name for c in ',"\r\n'):
+        return False
+    return not (first and name.startswith(("#", "\ufeff")))
+
+
+def _refuse_unreadable_names(run: Run, frames: dict[str, pd.DataFrame]) -> None:
+    """ConfigError for a column whose name the readers would not give back as written
+    (:func:`_name_read_back`)."""
+    for (kind, frame), name in zip(frames.items(), run.streams):
+        for k, column in enumerate(frame.columns):
+            if not _name_read_back(column, k == 0):
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: column name {column!r} would not "
+                    f"be read back as written from {kind}_XX.csv (a name is non-empty text "
+                    "without spaces around it, a comma, a quote or a line break); rename it")
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -257,9 +281,11 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), a terrain that is not a folder name (``A/B``, ``..``) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
-        ``SNOW``), or a text column the readers would refuse or change (a cell with a line
-        break or spaces around it, a number, an empty or non-finite cell among text);
-        nothing is written then.
+        ``SNOW``), a column name the readers would not give back as written (not text,
+        empty, spaces around it, a comma, a quote or a line break: ``' x'`` came back as
+        ``'x'``, ``'a"b'`` as ``'"a""b"'``), or a text column the
+        readers would refuse or change (a cell with a line break or spaces around it, a
+        number, an empty or non-finite cell among text); nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -283,6 +309,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
                           f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
+    _refuse_unreadable_names(run, frames)
     _refuse_unreadable_text(run, frames)
     folder = Path(out_dir) / terrain
     if index is not None:    # (True was run 01, 2.7 run 02, "x" int()'s bare ValueError)

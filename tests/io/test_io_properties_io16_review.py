@@ -3,6 +3,9 @@
 Not covered by the earlier property files (``test_io_properties_io14.py``,
 ``test_reader_properties.py``, ``test_csv_round_trip_properties.py``):
 
+* :func:`write_run` either refuses a channel name (:class:`ConfigError`, nothing written) or
+  the readers give it back as written: a name with a comma, a quote, a line break, spaces
+  around it, an empty name, a non-text name;
 * extreme magnitudes (subnormals, the float64 maximum) and a negative zero survive a write
   and a read, the sign of zero included;
 * the readers' fast path (every column read, every cell a number) and their strict path (an
@@ -18,6 +21,7 @@ from __future__ import annotations
 
 import tempfile
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -25,6 +29,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.errors import ConfigError
 from terrain.io.align import align_streams
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.report import input_report, merged_gaps
@@ -56,6 +61,45 @@ def _husky_run(extra: dict[str, pd.DataFrame] | None = None, imu_extra=None, n_i
     return Run(run_id="g/SNOW/00", dataset="g", terrain="SNOW",
                streams={"imu": imu, "wheels": wheels, **(extra or {})}, vehicle="husky",
                source="", meta={})
+
+
+# --- channel names -------------------------------------------------------------------------
+
+_odd_name = st.one_of(
+    st.text(min_size=0, max_size=6),
+    st.sampled_from(["a,b", " x", "x ", 'a"b', "", "a\nb", "a\rb", "#x", "é", "a b", "x;y",
+                     "time2", "nan", "1.5", "t_s ", "\tx", "\ufeffx"]),
+    st.integers(-3, 3))
+
+
+@FAST
+@given(name=_odd_name)
+def test_a_channel_name_is_refused_or_read_back_as_written(name):
+    """Before, ``write_run`` wrote any column name: ``' x'`` came back as ``'x'``, ``'a"b'``
+    as ``'"a""b"'``, ``0`` as ``'0'``, an empty name was not read at all (an ignored
+    column), and ``'a,b'`` or ``'a\\nb'`` wrote a file the readers refuse."""
+    t = np.arange(20) / 10.0
+    truth = pd.DataFrame({TIME: t, "v": np.arange(20.0)})
+    try:
+        truth[name] = np.linspace(-1.0, 1.0, 20)
+    except (TypeError, ValueError):
+        return
+    if list(truth.columns).count(name) != 1 or truth.shape[1] != 3:
+        return
+    run = _husky_run({"truth": truth})
+    with tempfile.TemporaryDirectory() as tmp:
+        try:
+            write_run(run, tmp, 0)
+        except ConfigError as exc:
+            assert not any(Path(tmp).iterdir())          # nothing written
+            assert repr(name) in str(exc) or str(name) in str(exc)
+            return
+        (back,) = _quiet(read_runs_dir, tmp)
+    got = back.streams["truth"]
+    assert list(got.columns) == list(truth.columns)
+    assert back.meta["ignored_columns"] == {}
+    np.testing.assert_allclose(got.to_numpy(dtype=float), truth.to_numpy(dtype=float),
+                               rtol=5e-9, atol=0)
 
 
 # --- extreme magnitudes --------------------------------------------------------------------
