@@ -231,7 +231,8 @@ def _name_read_back(name, first: bool) -> bool:
 
 def _refuse_unreadable_names(run: Run, frames: dict[str, pd.DataFrame]) -> None:
     """ConfigError for a column whose name the readers would not give back as written
-    (:func:`_name_read_back`)."""
+    (:func:`_name_read_back`), or a column of an ``imu``/``pro`` file that is not among the
+    file's canonical columns (the readers leave it out, an ignored column)."""
     for (kind, frame), name in zip(frames.items(), run.streams):
         for k, column in enumerate(frame.columns):
             if not _name_read_back(column, k == 0):
@@ -239,6 +240,11 @@ def _refuse_unreadable_names(run: Run, frames: dict[str, pd.DataFrame]) -> None:
                     f"stream {name!r} of run {run.run_id}: column name {column!r} would not "
                     f"be read back as written from {kind}_XX.csv (a name is non-empty text "
                     "without spaces around it, a comma, a quote or a line break); rename it")
+            if kind in COLUMN_MAPS and column not in COLUMN_MAPS[kind]:
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: column {column!r} would be written "
+                    f"to {kind}_XX.csv but never read back (the readers take its columns "
+                    f"{list(COLUMN_MAPS[kind])} only); put it in a stream of its own")
 
 
 def _json_default(value):
@@ -283,7 +289,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
         ``SNOW``), a column name the readers would not give back as written (not text,
         empty, spaces around it, a comma, a quote or a line break: ``' x'`` came back as
-        ``'x'``, ``'a"b'`` as ``'"a""b"'``), or a text column the
+        ``'x'``, ``'a"b'`` as ``'"a""b"'``), a column of the ``imu`` or ``wheels`` stream
+        other than its file's canonical ones (never read back), or a text column the
         readers would refuse or change (a cell with a line break or spaces around it, a
         number, an empty or non-finite cell among text); nothing is written then.
     """

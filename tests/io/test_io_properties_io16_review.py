@@ -5,7 +5,8 @@ Not covered by the earlier property files (``test_io_properties_io14.py``,
 
 * :func:`write_run` either refuses a channel name (:class:`ConfigError`, nothing written) or
   the readers give it back as written: a name with a comma, a quote, a line break, spaces
-  around it, an empty name, a non-text name;
+  around it, an empty name, a non-text name, or a column of an ``imu``/``pro`` stream the
+  readers do not read;
 * extreme magnitudes (subnormals, the float64 maximum) and a negative zero survive a write
   and a read, the sign of zero included;
 * the readers' fast path (every column read, every cell a number) and their strict path (an
@@ -100,6 +101,18 @@ def test_a_channel_name_is_refused_or_read_back_as_written(name):
     assert back.meta["ignored_columns"] == {}
     np.testing.assert_allclose(got.to_numpy(dtype=float), truth.to_numpy(dtype=float),
                                rtol=5e-9, atol=0)
+
+
+@pytest.mark.parametrize("stream, column", [("imu", "temp"), ("wheels", "omega_l")])
+def test_a_column_the_readers_do_not_read_is_refused(tmp_path, stream, column):
+    """A channel of the IMU or wheel stream other than the file's canonical columns was
+    written to ``imu_XX.csv``/``pro_XX.csv`` and came back as an ignored column, its
+    values gone: ``imu['temp']`` read back as ``ignored_columns {'imu': ['temp']}``."""
+    run = _husky_run()
+    run.streams[stream][column] = 1.0
+    with pytest.raises(ConfigError, match=column):
+        write_run(run, tmp_path, 0)
+    assert not any(tmp_path.iterdir())
 
 
 # --- extreme magnitudes --------------------------------------------------------------------
