@@ -65,6 +65,8 @@ _FILE_RE = re.compile(rf"^(?P<kind>{FILE_KIND_PATTERN})_(?P<index>\d+)\.csv$")
 _META_RE = re.compile(r"^meta_(?P<index>.+)\.json$")
 #: cell texts (stripped, lower case) that stand for a missing or non-finite sample: the words
 #: NumPy's fast path reads as non-finite too (C's printf writes -nan), and an empty cell
+#: fewest data rows of a stream file: two are needed to know its sample rate
+MIN_DATA_ROWS = 2
 NON_FINITE_WORDS = ("nan", "-nan", "+nan", "inf", "-inf", "+inf", "infinity", "-infinity",
                     "+infinity", "")
 
@@ -426,9 +428,9 @@ def _split_lines(text: str, path: Path) -> tuple[list[str], list[list[str]], np.
                              f"other than the header's {len(header)} (first: {n_fields[k]} "
                              f"fields) at {first_items(lines[ragged])}{hint}", path,
                              row=k, line=int(lines[k]))
-    if len(rows) < 2:
-        raise EmptyFileError("file has a single data row; at least 2 are needed to know the "
-                             "sample rate", path, line=int(lines[0]))
+    if len(rows) < MIN_DATA_ROWS:
+        raise EmptyFileError(f"file has a single data row; at least {MIN_DATA_ROWS} are "
+                             "needed to know the sample rate", path, line=int(lines[0]))
     return header, cells, lines, skipped
 
 

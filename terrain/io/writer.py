@@ -25,7 +25,8 @@ import pandas as pd
 
 from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.jsonfile import json_ready
-from terrain.io.measured import COLUMN_MAPS, FILE_KIND_PATTERN, STREAM_NAMES, parse_cells
+from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
+                                 parse_cells)
 from terrain.run import TIME, Run
 
 #: Number format of the written CSV files (see the module's note on timestamps).
@@ -287,12 +288,13 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), a terrain that is not a folder name (``A/B``, ``..``) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
-        ``SNOW``), a column name the readers would not give back as written (not text,
-        empty, spaces around it, a comma, a quote or a line break: ``' x'`` came back as
-        ``'x'``, ``'a"b'`` as ``'"a""b"'``), a column of the ``imu`` or ``wheels`` stream
-        other than its file's canonical ones (never read back), or a text column the
-        readers would refuse or change (a cell with a line break or spaces around it, a
-        number, an empty or non-finite cell among text); nothing is written then.
+        ``SNOW``), a stream of fewer than :data:`~terrain.io.measured.MIN_DATA_ROWS` (2)
+        rows (a file the readers refuse), a column name the readers would not give back
+        as written (not text, empty, spaces around it, a comma, a quote or a line break:
+        ``' x'`` came back as ``'x'``, ``'a"b'`` as ``'"a""b"'``), a column of the ``imu``
+        or ``wheels`` stream other than its file's canonical ones (never read back), or a
+        text column the readers would refuse or change (a cell with a line break or spaces
+        around it, a number, an empty or non-finite cell among text); nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -316,6 +318,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
                           f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
+    short = next(((n, len(f)) for n, f in run.streams.items() if len(f) < MIN_DATA_ROWS), None)
+    if short is not None:   # (a header and one row, or none: a file the readers refuse)
+        raise ConfigError(f"stream {short[0]!r} of run {run.run_id} has {short[1]} row(s): "
+                          f"the readers need at least {MIN_DATA_ROWS} to know its sample "
+                          f"rate and would refuse {file_kind(short[0])}_XX.csv; leave the "
+                          "stream out")
     _refuse_unreadable_names(run, frames)
     _refuse_unreadable_text(run, frames)
     folder = Path(out_dir) / terrain

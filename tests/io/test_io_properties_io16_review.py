@@ -6,7 +6,8 @@ Not covered by the earlier property files (``test_io_properties_io14.py``,
 * :func:`write_run` either refuses a channel name (:class:`ConfigError`, nothing written) or
   the readers give it back as written: a name with a comma, a quote, a line break, spaces
   around it, an empty name, a non-text name, or a column of an ``imu``/``pro`` stream the
-  readers do not read;
+  readers do not read; a stream of fewer than two rows (a file the readers refuse) is
+  refused too;
 * extreme magnitudes (subnormals, the float64 maximum) and a negative zero survive a write
   and a read, the sign of zero included;
 * the readers' fast path (every column read, every cell a number) and their strict path (an
@@ -113,6 +114,24 @@ def test_a_column_the_readers_do_not_read_is_refused(tmp_path, stream, column):
     with pytest.raises(ConfigError, match=column):
         write_run(run, tmp_path, 0)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("stream", ["truth", "wheels", "imu"])
+@pytest.mark.parametrize("n_rows", [0, 1, 2])
+def test_a_stream_of_fewer_than_two_rows_is_refused_not_written(tmp_path, stream, n_rows):
+    """A stream of one row (or none) was written as a file of a header and one row (or the
+    header alone), which the readers refuse (EmptyFileError: 'at least 2 are needed to know
+    the sample rate'): the run written could not be read back at all. Two rows read back."""
+    run = _husky_run({"truth": pd.DataFrame({TIME: [0.0, 0.5], "v": [1.0, 2.0]})})
+    run.streams[stream] = run.streams[stream].iloc[:n_rows]
+    if n_rows < 2:
+        with pytest.raises(ConfigError, match=f"stream {stream!r}.*{n_rows} row"):
+            write_run(run, tmp_path, 0)
+        assert not any(tmp_path.iterdir())
+        return
+    write_run(run, tmp_path, 0)
+    (back,) = _quiet(read_runs_dir, tmp_path)
+    assert len(back.streams[stream]) == 2
 
 
 # --- extreme magnitudes --------------------------------------------------------------------
