@@ -16,7 +16,9 @@ Not covered by the earlier property files (``test_io_properties_io14.py``,
 * the gaps a reader lists are exactly where :func:`align_streams` puts NaN (a filtered and an
   unfiltered stream), and nowhere else; stream order only permutes the aligned columns;
 * :func:`merged_gaps` and the input report's gap count and seconds equal a brute-force union
-  of the listed intervals.
+  of the listed intervals;
+* the unit rules under a change of unit: an accelerometer converted to g is refused in any
+  orientation, wheel speeds converted to km/h exactly past twice the top speed.
 """
 
 from __future__ import annotations
@@ -273,3 +275,64 @@ def test_merged_gaps_and_the_report_equal_a_brute_force_union(gaps):
     assert row["gaps"] == len(want)
     assert row["gap_s"] == pytest.approx(sum(b - a for a, b in want))
     assert report.metrics()["input_gaps"] == len(want)
+
+
+# --- unit rules under a change of unit -----------------------------------------------------
+
+def _rotation(rng) -> np.ndarray:
+    q, r = np.linalg.qr(rng.standard_normal((3, 3)))
+    return q * np.sign(np.diag(r))
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), noise=st.floats(0.01, 2.0), n=st.integers(20, 300))
+def test_an_accelerometer_in_g_is_refused_whatever_its_orientation(seed, noise, n):
+    """Rule ``accel_units`` judges the median norm of the specific force: the same IMU in any
+    orientation reads the same; in m/s^2 it passes, converted to g (/ 9.80665) it is a
+    UnitError naming ``az``, because gravity's 9.81 falls in [0.5, 3) x 9.80665 only in g.
+    (A noise-free accelerometer repeats one value: the stuck-sensor rule's, not judged.)"""
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_accel_units
+
+    rng = np.random.default_rng(seed)
+    acc = np.array([0.0, 0.0, 9.81]) + noise * rng.standard_normal((n, 3))
+    acc = acc @ _rotation(rng).T
+    frame = pd.DataFrame({TIME: np.arange(n) / 100.0, "ax": acc[:, 0], "ay": acc[:, 1],
+                          "az": acc[:, 2]})
+    median = float(np.median(np.linalg.norm(acc, axis=1)))
+    found: list[str] = []
+    check_accel_units(frame, "imu.csv", found=found)          # m/s^2: no error
+    assert found == [] and median >= 3.0
+    in_g = frame.assign(**{c: frame[c] / 9.80665 for c in ("ax", "ay", "az")})
+    if 0.5 <= median / 9.80665 < 3.0:
+        with pytest.raises(UnitError) as info:
+            check_accel_units(in_g, "imu.csv", found=found)
+        assert (info.value.path, info.value.column) == ("imu.csv", "az")
+    else:
+        check_accel_units(in_g, "imu.csv", found=found)
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), top=st.floats(0.05, 1.0), n=st.integers(10, 80))
+def test_wheel_speeds_in_km_h_are_refused_exactly_past_twice_the_top_speed(seed, top, n):
+    """Rule ``wheel_speed_units`` (certain case): the 99th percentile of ``|vel_l|, |vel_r|``
+    above twice the Husky's 1.0 m/s. Speeds in m/s up to ``top`` pass; the same speeds in
+    km/h (x 3.6) are refused exactly when 3.6 x that percentile exceeds 2 m/s."""
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) / 10.0
+    speeds = rng.uniform(-top, top, (n, 2))
+    wheels = pd.DataFrame({TIME: t, "vel_l": speeds[:, 0], "vel_r": speeds[:, 1],
+                           "cur_l": 5.0, "cur_r": 5.0})
+    kmh = wheels.assign(vel_l=3.6 * wheels["vel_l"], vel_r=3.6 * wheels["vel_r"])
+    _quiet(check_run, "r", {"wheels": wheels}, "husky", {"wheels": "pro.csv"})
+    p99 = float(np.percentile(np.abs(kmh[["vel_l", "vel_r"]].to_numpy()).ravel(), 99))
+    if p99 > 2.0:
+        with pytest.raises(UnitError) as info:
+            _quiet(check_run, "r", {"wheels": kmh}, "husky", {"wheels": "pro.csv"},
+                   columns={"wheels": {"velL": "vel_l", "velR": "vel_r"}})
+        assert (info.value.path, info.value.column) == ("pro.csv", "velL")
+    else:
+        _quiet(check_run, "r", {"wheels": kmh}, "husky", {"wheels": "pro.csv"})
