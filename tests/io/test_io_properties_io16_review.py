@@ -18,7 +18,8 @@ Not covered by the earlier property files (``test_io_properties_io14.py``,
 * :func:`merged_gaps` and the input report's gap count and seconds equal a brute-force union
   of the listed intervals;
 * the unit rules under a change of unit: an accelerometer converted to g is refused in any
-  orientation, wheel speeds converted to km/h exactly past twice the top speed.
+  orientation, wheel speeds converted to km/h exactly past twice the top speed, a gyro
+  converted to deg/s whenever the yaw rate follows the wheel speeds.
 """
 
 from __future__ import annotations
@@ -336,3 +337,33 @@ def test_wheel_speeds_in_km_h_are_refused_exactly_past_twice_the_top_speed(seed,
         assert (info.value.path, info.value.column) == ("pro.csv", "velL")
     else:
         _quiet(check_run, "r", {"wheels": kmh}, "husky", {"wheels": "pro.csv"})
+
+
+@FAST
+@given(seed=st.integers(0, 2**32 - 1), slope=st.floats(0.3, 5.0), noise=st.floats(0.0, 0.05))
+def test_a_gyro_in_deg_s_is_refused_from_the_yaw_rate_on_the_wheel_speeds(seed, slope, noise):
+    """Rule ``gyro_units`` (certain case): a skid-steer yaw rate is ``(v_R - v_L) / (chi B)``,
+    a slope of at most 5 1/m in rad/s; in deg/s (x 57.3) every slope above 0.262 1/m
+    exceeds the 15 1/m bound. The rad/s run passes; its gyro in deg/s is a UnitError naming
+    ``wz``, whatever the slope in [0.3, 5] 1/m."""
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_run
+
+    rng = np.random.default_rng(seed)
+    t_w = np.arange(100) / 10.0
+    dv = 0.3 * np.sin(2 * np.pi * t_w / rng.uniform(2.0, 8.0))        # turning left, right
+    wheels = pd.DataFrame({TIME: t_w, "vel_l": 0.5 - dv / 2, "vel_r": 0.5 + dv / 2,
+                           "cur_l": 5.0, "cur_r": 5.0})
+    t_i = np.arange(1000) / 100.0
+    wz = slope * np.interp(t_i, t_w, dv) + noise * rng.standard_normal(t_i.size)
+    imu = pd.DataFrame({TIME: t_i, "wx": 0.01 * rng.standard_normal(t_i.size),
+                        "wy": 0.01 * rng.standard_normal(t_i.size), "wz": wz,
+                        "ax": 0.1 * rng.standard_normal(t_i.size),
+                        "ay": 0.1 * rng.standard_normal(t_i.size),
+                        "az": 9.81 + 0.1 * rng.standard_normal(t_i.size)})
+    files = {"imu": "imu.csv", "wheels": "pro.csv"}
+    _quiet(check_run, "r", {"imu": imu, "wheels": wheels}, "husky", files)
+    deg = imu.assign(**{c: np.degrees(imu[c]) for c in ("wx", "wy", "wz")})
+    with pytest.raises(UnitError) as info:
+        _quiet(check_run, "r", {"imu": deg, "wheels": wheels}, "husky", files)
+    assert (info.value.path, info.value.column) == ("imu.csv", "wz")
