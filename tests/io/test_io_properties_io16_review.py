@@ -367,3 +367,14 @@ def test_a_gyro_in_deg_s_is_refused_from_the_yaw_rate_on_the_wheel_speeds(seed, 
     with pytest.raises(UnitError) as info:
         _quiet(check_run, "r", {"imu": deg, "wheels": wheels}, "husky", files)
     assert (info.value.path, info.value.column) == ("imu.csv", "wz")
+
+
+@pytest.mark.parametrize("seconds, text", [
+    (12.34, "12.3 s"), (5e5, "500000.0 s"), (-999999.9, "-999999.9 s"), (1e6, "1e+06 s"),
+    (2.5e6, "2.5e+06 s"), (-1e300, "-1e+300 s")])
+def test_seconds_text_keeps_one_decimal_below_a_million_seconds(seconds, text):
+    """:func:`seconds_text`: one decimal below 1e6 s, three significant digits from there
+    (a threshold of 1e5 survived every test: 500000 s printed as 5e+05 s)."""
+    from terrain.io.report import seconds_text
+
+    assert seconds_text(seconds) == text
