@@ -1,0 +1,284 @@
+"""Review properties (ctl16) of the control layer that ``test_control_properties_ctl14``
+does not state: the PID core against a slow textbook reference over irregular intervals,
+braking mirroring traction, bumpless gain changes, non-positive intervals, and the
+streaming estimators and the measured replay over any grouping of their samples."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from terrain.control.estimators import WheelImuObserver
+from terrain.control.replay import measured_observations
+from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
+                                      TractionControlConfig, TractionState,
+                                      traction_control_step)
+from terrain.run import Run
+
+sys.path.insert(0, str(Path(__file__).parent))
+from control_helpers import observation  # noqa: E402
+
+FAST = settings(max_examples=60, deadline=None)
+one = (lambda x: np.array([float(x)]))  # noqa: E731
+
+targets_s = st.builds(SlipTargets, traction=st.floats(0.01, 1.0),
+                      braking=st.floats(-1.0, -0.01), steady=st.floats(0.0, 1.0))
+
+
+# --- the PID core against a slow reference ------------------------------------------------
+
+#: one step of an unsaturated two-sided run: (v_long, a_local, slip, dt)
+pid_steps = st.tuples(st.sampled_from([-1.0, 1.0]), st.floats(-3.0, 3.0),
+                      st.floats(-1.0, 1.0), st.floats(0.01, 0.1))
+
+
+def _reference_pid(cfg, targets, seq):
+    """Textbook PID of eqs. 8.1-8.2 by hand: ``e = sgn(v) target(mode) - s``,
+    ``I += ki e dt``, derivative of the measured slip through the first-order filter
+    ``d += dt / (tau + dt) (raw - d)`` (raw 0 at the first step), ``PID = kp e + I - kd d``."""
+    integral, deriv, s_prev, out = 0.0, 0.0, None, []
+    for v, a, s, dt in seq:
+        power = a * v
+        target = (targets.traction if power > cfg.power_threshold_m2_s3 else
+                  targets.braking if power < -cfg.power_threshold_m2_s3 else targets.steady)
+        e = (1.0 if v > 0 else -1.0) * target - s        # sgn(v_long) target
+        raw = 0.0 if s_prev is None else (s - s_prev) / dt
+        deriv += dt / (cfg.derivative_tau_s + dt) * (raw - deriv)
+        integral += cfg.ki * e * dt
+        out.append(cfg.kp * e + integral - cfg.kd * deriv)
+        s_prev = s
+    return out
+
+
+@FAST
+@given(st.floats(0.0, 5.0), st.floats(0.0, 2.0), st.floats(0.0, 0.05), st.floats(0.02, 0.5),
+       targets_s, st.lists(pid_steps, min_size=1, max_size=30))
+def test_unsaturated_pid_equals_the_slow_textbook_reference(kp, ki, kd, tau, targets, seq):
+    """Where nothing saturates (two-sided, a command in the middle of a wide range), every
+    step's correction is the textbook PID over the *irregular* intervals drawn, mode and
+    direction switches included: integral ``sum ki e dt``, filtered derivative of the
+    measurement, no other memory."""
+    cfg = TractionControlConfig(kp=kp, ki=ki, kd=kd, derivative_tau_s=tau, wheel_radius_m=1.0,
+                                omega_max_rad_s=100.0, output_fraction=0.5, one_sided=False)
+    state = TractionState.zeros(1)
+    expected = _reference_pid(cfg, targets, seq)
+    for (v, a, s, dt), want in zip(seq, expected):
+        out, state = traction_control_step(cfg, state, targets, one(50.0), one(50.0), one(v),
+                                           one(a), 1.0, dt, slip=one(s))
+        assert out.enabled[0] and not out.safe[0]
+        assert abs(want) < 50.0
+        assert out.correction_rad_s[0] == pytest.approx(want, rel=1e-9, abs=1e-9)
+        assert out.omega_cmd_rad_s[0] == pytest.approx(50.0 + want, rel=1e-12, abs=1e-9)
+
+
+@FAST
+@given(st.floats(0.1, 5.0), st.floats(0.01, 0.2), st.integers(1, 20), st.floats(-0.5, 0.5),
+       st.floats(0.0, 0.3))
+def test_the_integral_does_not_depend_on_how_an_interval_is_cut(ki, total, n, error, target):
+    """Integral-only control of a constant error: ``n`` steps of ``T / n`` give the same
+    correction as one step of ``T`` (``ki e T``), unsaturated."""
+    cfg = TractionControlConfig(kp=0.0, ki=ki, omega_max_rad_s=100.0, one_sided=False)
+    targets = SlipTargets(max(target, 0.01), -0.1, 0.0)
+    s = targets.traction - error
+    args = (one(50.0), one(50.0), one(1.0), one(1.0), 1.0)   # traction, v 1 m/s
+
+    def run(steps):
+        state = TractionState.zeros(1)
+        for _ in range(steps):
+            out, state = traction_control_step(cfg, state, targets, *args, total / steps,
+                                               slip=one(s))
+        return out.correction_rad_s[0]
+
+    assert run(n) == pytest.approx(run(1), rel=1e-9, abs=1e-12)
+    assert run(1) == pytest.approx(ki * error * total, rel=1e-9, abs=1e-12)
+
+
+# --- braking mirrors traction -------------------------------------------------------------
+
+mirror_steps = st.tuples(st.floats(0.5, 5.0), st.floats(-1.0, 1.0), st.floats(1e-3, 0.2),
+                         st.booleans())
+
+
+@FAST
+@given(st.floats(0.0, 50.0), st.floats(0.0, 50.0), st.floats(0.0, 2.0), st.floats(0.01, 0.5),
+       st.floats(0.05, 0.5), st.booleans(), st.floats(0.01, 1.0), st.floats(0.0, 1.0),
+       st.floats(0.1, 3.0), st.lists(mirror_steps, min_size=1, max_size=30))
+def test_braking_mirrors_traction(kp, ki, kd, tau, fraction, one_sided, target, steady, v,
+                                  seq):
+    """Table 8.1: cases 1C/1D mirror 1A/1B. A braking wheel (``a v < 0``) with slip ``-s``
+    and braking target ``-t`` gets exactly the opposite correction of a driving wheel
+    (``a v > 0``) with slip ``s`` and traction target ``t``, over any history (enable
+    toggles included), one- or two-sided, where the command has the same room on either
+    side (the limiter then only slows a driving wheel and only speeds up a braking one)."""
+    cfg = TractionControlConfig(kp=kp, ki=ki, kd=kd, derivative_tau_s=tau, wheel_radius_m=0.2,
+                                omega_max_rad_s=20.0, output_fraction=fraction,
+                                one_sided=one_sided)
+    drive = SlipTargets(target, -target, min(steady, target))
+    ll = one(10.0)          # omega_max / 2: the same room above and below
+    st_t, st_b = TractionState.zeros(1), TractionState.zeros(1)
+    for a, s, dt, on in seq:
+        chassis = 1.0 if on else 0.0
+        out_t, st_t = traction_control_step(cfg, st_t, drive, ll, ll, one(v), one(a),
+                                            chassis, dt, slip=one(s))
+        out_b, st_b = traction_control_step(cfg, st_b, drive, ll, ll, one(v), one(-a),
+                                            chassis, dt, slip=one(-s))
+        assert (out_t.mode[0], out_b.mode[0]) == (TRACTION, BRAKING)
+        assert out_b.desired_slip[0] == -out_t.desired_slip[0]
+        assert out_b.correction_rad_s[0] == -out_t.correction_rad_s[0]
+        assert st_b.integral[0] == -st_t.integral[0]
+
+
+# --- bumpless gain changes and the interval -----------------------------------------------
+
+configs = st.builds(
+    TractionControlConfig, kp=st.floats(0.0, 50.0), ki=st.floats(0.0, 50.0), kd=st.just(0.0),
+    wheel_radius_m=st.floats(0.05, 1.0), omega_max_rad_s=st.floats(1.0, 30.0),
+    output_fraction=st.floats(0.05, 1.0), one_sided=st.booleans())
+history = st.lists(st.tuples(st.floats(-25.0, 25.0), st.floats(-3.0, 3.0),
+                             st.floats(-5.0, 5.0), st.floats(-1.0, 1.0),
+                             st.floats(0.0, 3.0), st.floats(1e-3, 0.2)),
+                   min_size=1, max_size=20)
+
+
+def _history(cfg, targets, seq):
+    state = TractionState.zeros(1)
+    for wm, v, a, s, ch, dt in seq:
+        ll = min(max(wm, -cfg.omega_max_rad_s), cfg.omega_max_rad_s)
+        _, state = traction_control_step(cfg, state, targets, one(ll), one(wm), one(v),
+                                         one(a), ch, dt, slip=one(s))
+    return state
+
+
+@FAST
+@given(configs, targets_s, history, st.floats(0.0, 50.0), st.floats(0.0, 50.0),
+       st.floats(1e-3, 0.2))
+def test_a_gain_change_at_zero_error_does_not_bump_the_output(cfg, targets, seq, kp, ki, dt):
+    """Bumpless retuning: the integral holds rad/s (the output it applies), not the sum of
+    the errors, so changing kp or ki between two steps with a zero error (kd 0) gives the
+    same correction as keeping the gains."""
+    state = _history(cfg, targets, seq)
+    v = 0.5
+    ll = one(0.5 * cfg.omega_max_rad_s)
+    probe, _ = traction_control_step(cfg, TractionState.zeros(1), targets, ll, ll, one(v),
+                                     one(2.0), 1.0, dt, slip=one(0.0))
+    desired = probe.desired_slip[0]          # traction mode (a v = 1 > threshold)
+    outs = []
+    for c in (cfg, dataclasses.replace(cfg, kp=kp, ki=ki)):
+        out, _ = traction_control_step(c, state, targets, ll, ll, one(v), one(2.0), 1.0, dt,
+                                       slip=one(desired))
+        assert out.error[0] == 0.0 and out.enabled[0]
+        outs.append(out.correction_rad_s[0])
+    if state.active[0] or (cfg.ki > 0.0) == (ki > 0.0):
+        assert outs[0] == outs[1]
+
+
+@FAST
+@given(configs, targets_s, history, st.one_of(st.just(0.0), st.just(-0.0),
+                                              st.floats(-10.0, -1e-12)))
+def test_a_zero_or_negative_interval_gives_the_safe_output(cfg, targets, seq, dt):
+    """``dt_s`` <= 0 (a repeated or back-going time stamp): no correction, ``safe``, memory
+    cleared, whatever came before (the PID would divide by it or integrate backwards)."""
+    state = _history(cfg, targets, seq)
+    ll = 0.5 * cfg.omega_max_rad_s
+    out, new = traction_control_step(cfg, state, targets, one(ll), one(ll), one(0.5),
+                                     one(1.0), 1.0, dt, slip=one(0.9))
+    assert out.safe[0] and not out.enabled[0]
+    assert out.correction_rad_s[0] == 0.0 and out.omega_cmd_rad_s[0] == ll
+    assert new.integral[0] == 0.0 and new.derivative[0] == 0.0 and not new.active[0]
+
+
+@FAST
+@given(configs, targets_s, history)
+def test_the_steady_mode_uses_the_steady_target_only_two_sided(cfg, targets, seq):
+    """Eq. 8.9: within the power dead band the set point is the steady target for the
+    two-sided regulation, the traction target for the one-sided limiter (its steady limit)."""
+    state = _history(cfg, targets, seq)
+    ll = one(0.5 * cfg.omega_max_rad_s)
+    for v in (0.5, -0.5):
+        out, _ = traction_control_step(cfg, state, targets, ll, ll, one(v), one(0.0), 1.0,
+                                       0.01, slip=one(0.0))
+        assert out.mode[0] == STEADY
+        want = targets.traction if cfg.one_sided else targets.steady
+        assert out.desired_slip[0] == (want if v > 0 else -want)
+
+
+# --- the wheel + IMU observer over any grouping of its samples ----------------------------
+
+def _observer_stream(draw_rows):
+    imu = np.array([[t, a, 0.0, w] for t, a, w, _, _ in draw_rows])
+    wheels = np.array([[t + 0.002, wl, wr] for t, _, _, wl, wr in draw_rows])
+    return imu, wheels
+
+
+sample_rows = st.lists(st.tuples(st.floats(-2.0, 2.0), st.floats(-0.5, 0.5),
+                                 st.floats(-5.0, 5.0), st.floats(-5.0, 5.0)),
+                       min_size=2, max_size=30)
+
+
+@FAST
+@given(sample_rows, st.lists(st.integers(1, 29), max_size=6), st.floats(0.005, 0.1))
+def test_wheel_imu_observer_does_not_depend_on_how_samples_are_grouped_into_calls(
+        rows, cuts, period):
+    """Sample-by-sample processing: the same time-ordered IMU and wheel samples handed over
+    in one call or in any number of calls give the same final speed (the robot is
+    commanded to move, so no zero-velocity update depends on the call)."""
+    rows = [(k * period, a, w, wl, wr) for k, (a, w, wl, wr) in enumerate(rows)]
+    imu, wheels = _observer_stream(rows)
+    t_end = rows[-1][0] + 0.01
+
+    def run(bounds):
+        est = WheelImuObserver()
+        lo = 0
+        for hi in [*bounds, len(rows)]:
+            out = est.update(observation(rows[min(hi, len(rows)) - 1][0] + 0.01
+                                         if hi < len(rows) else t_end, [1.0, 1.0],
+                                         imu=imu[lo:hi], wheels=wheels[lo:hi]))
+            lo = hi
+        return out
+
+    whole = run([])
+    split = run(sorted({c for c in cuts if c < len(rows)}))
+    np.testing.assert_allclose(split.v_long_m_s, whole.v_long_m_s, rtol=1e-12, atol=1e-12)
+    assert split.age_s == whole.age_s
+
+
+# --- the measured replay: every logged sample once ----------------------------------------
+
+times = st.lists(st.floats(0.0, 3.0), min_size=1, max_size=40).map(sorted)
+
+
+@FAST
+@given(times, times, st.floats(1.0, 200.0))
+def test_every_logged_sample_reaches_one_call_or_is_counted_dropped(t_imu, t_wh, rate):
+    """Conservation: each stream's samples are the ones handed to the calls (each once, in
+    order, within ``(previous call, call]``) plus those counted before the start and after
+    the end, whatever the clocks (repeated times included) and the rate."""
+    assume(max(t_imu[0], t_wh[0]) <= min(t_imu[-1], t_wh[-1]))
+    imu = pd.DataFrame({"t_s": t_imu, "wx": 0.0, "wy": 0.0, "wz": 0.0,
+                        "ax": np.arange(len(t_imu), dtype=float), "ay": 0.0, "az": 9.81})
+    wh = pd.DataFrame({"t_s": t_wh, "vel_l": np.arange(len(t_wh), dtype=float), "vel_r": 0.0,
+                       "cur_l": -1.0, "cur_r": 2.0})
+    run = Run("r", "test", None, {"imu": imu, "wheels": wh})
+    obs = measured_observations(run, 0.2, rate)
+    calls = list(obs)
+    assert calls
+    got_imu = np.concatenate([c.imu[:, 1] for c in calls])
+    got_wh = np.concatenate([c.wheels[:, 1] for c in calls]) * 0.2
+    for got, n, name in ((got_imu, len(t_imu), "imu"), (got_wh, len(t_wh), "wheels")):
+        first = obs.dropped_before_start[name]
+        assert first + got.size + obs.dropped_after_end[name] == n
+        np.testing.assert_allclose(got, np.arange(first, first + got.size))
+    prev = -math.inf
+    for c in calls:
+        for rows in (c.imu, c.wheels, c.currents, c.imu_full):
+            assert np.all(rows[:, 0] <= c.t_s) and np.all(rows[:, 0] > prev)
+        assert np.all(c.currents[:, 1:] >= 0.0)
+        prev = c.t_s
