@@ -392,7 +392,8 @@ class WheelImuObserver:
     Notes
     -----
     An IMU or wheel sample holding a NaN or infinite time or value is skipped and counted in
-    ``nonfinite_count``.
+    ``nonfinite_count``. A sample stamped before the latest of its stream (a late one) is
+    read over no interval (no integration, no pull; the stream's time stays the latest).
     """
 
     name = "wheel-imu-observer"
@@ -437,20 +438,24 @@ class WheelImuObserver:
                 self.nonfinite_count += 1
                 continue
             if name == "imu":
-                if self.t_imu is not None:
+                # a late sample (stamped before the latest) integrates over no interval:
+                # over its negative one a forward acceleration slowed the robot
+                if self.t_imu is not None and t > self.t_imu:
                     self.v += (t - self.t_imu) * float(z[0])
-                self.t_imu, self.a, self.w = t, float(z[0]), float(z[2])
+                self.t_imu = t if self.t_imu is None else max(self.t_imu, t)
+                self.a, self.w = float(z[0]), float(z[2])
             else:
                 self.omega = z.copy()
                 # centre speed each side implies (left + B w / 2, right - B w / 2)
                 half_w = 0.5 * self.vehicle.track_m * self.w
                 centre = z[:2] * r + np.array([half_w, -half_w])
                 v_ref = float(centre[np.argmin(np.abs(centre))])
-                dt_w = 0.0 if self.t_wheel is None else t - self.t_wheel
+                # a late sample pulls over no interval: 1 - exp(|dt| / tau) < 0 pushed away
+                dt_w = 0.0 if self.t_wheel is None else max(t - self.t_wheel, 0.0)
                 self.v += (1.0 - math.exp(-dt_w / self.tau_s)) * (v_ref - self.v)
                 if np.all(z == 0.0) and np.all(obs.omega_low_level == 0.0):
                     self.v = 0.0                      # standing still: zero-velocity update
-                self.t_wheel = t
+                self.t_wheel = t if self.t_wheel is None else max(self.t_wheel, t)
         half = 0.5 * self.vehicle.track_m * self.w
         age = math.inf if self.t_wheel is None else float(obs.t_s - self.t_wheel)
         return VelocityEstimate(self.omega.copy(), np.array([self.v - half, self.v + half]),

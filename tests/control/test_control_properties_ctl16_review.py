@@ -250,6 +250,44 @@ def test_wheel_imu_observer_does_not_depend_on_how_samples_are_grouped_into_call
     assert split.age_s == whole.age_s
 
 
+@FAST
+@given(st.floats(-2.0, 2.0), st.floats(0.0, 3.0), st.floats(0.01, 5.0), st.floats(0.01, 2.0))
+def test_a_late_wheel_sample_never_pushes_the_speed_away_from_its_reference(
+        v0, v_ref, back, tau):
+    """The pull ``v += (1 - exp(-dt / tau)) (v_ref - v)`` moves the speed towards the
+    wheel's reference, never past it nor away from it: a wheel sample stamped ``back`` s
+    *before* the previous one (a late sample; ``dt < 0``) may not reverse it
+    (``1 - exp(|dt| / tau)`` is negative: it pushed the speed away, by more than the gap for
+    ``|dt| > tau ln 2``: v 0, v_ref 1 m/s, 1 s late, tau 1 s: -1.72 m/s)."""
+    est = WheelImuObserver(tau_s=tau)
+    r = est.vehicle.wheel_radius_m
+    est.update(observation(1.0, [1.0, 1.0], wheels=np.array([[1.0, v0 / r, v0 / r]])))
+    est.v = before = v0              # (the first sample's own pull: none, dt 0)
+    late = np.array([[1.0 - back, v_ref / r, v_ref / r]])
+    est.update(observation(1.1, [1.0, 1.0], wheels=late))
+    lo, hi = sorted((before, v_ref))
+    assert lo - 1e-12 <= est.v <= hi + 1e-12
+    assert est.update(observation(1.1, [1.0, 1.0])).age_s == pytest.approx(0.1)
+
+
+@FAST
+@given(st.floats(0.1, 5.0), st.floats(0.01, 3.0), st.floats(-5.0, 5.0))
+def test_a_late_imu_sample_does_not_integrate_backwards(t_prev, back, accel):
+    """``v += dt a_x``: an accelerometer sample stamped before the previous one (a late
+    sample) may not integrate over a negative interval (a forward acceleration then slowed
+    the robot: ``a`` 1 m/s^2, 2 s late, -2 m/s)."""
+    est = WheelImuObserver()
+    est.update(observation(t_prev, [1.0, 1.0], imu=np.array([[t_prev, 0.0, 0.0, 0.0]])))
+    v_before = est.v
+    est.update(observation(t_prev + 0.01, [1.0, 1.0],
+                           imu=np.array([[t_prev - back, accel, 0.0, 0.0]])))
+    assert est.v == v_before
+    # and the next in-order sample integrates from the latest time, not the late one
+    est.update(observation(t_prev + 0.02, [1.0, 1.0],
+                           imu=np.array([[t_prev + 0.01, accel, 0.0, 0.0]])))
+    assert est.v == pytest.approx(v_before + 0.01 * accel, abs=1e-12)
+
+
 # --- the measured replay: every logged sample once ----------------------------------------
 
 times = st.lists(st.floats(0.0, 3.0), min_size=1, max_size=40).map(sorted)
