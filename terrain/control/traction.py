@@ -497,7 +497,7 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     ------
     ShapeError
         An input array's shape, or a field of ``state``, differs from the state's integral
-        ``(n,)`` (named in the message).
+        ``(n,)`` (named in the message); a state of no drive unit or not one-dimensional.
     DataFormatError
         An input that is not a real number (text, ``None`` for a scalar, a complex
         scalar, a boolean or an array of booleans), named.
@@ -536,6 +536,9 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                  and math.isfinite(targets.traction) and math.isfinite(targets.braking)
                  and math.isfinite(targets.steady))
     n = state.integral.shape
+    if len(n) != 1 or n[0] == 0:   # (an IndexError or a TypeError further down)
+        raise ShapeError(f"traction control step: the state's integral must hold one entry "
+                         f"per drive unit, shape (n,) with n >= 1, got {n}")
     # zip below stops at the shortest array: a state field of another length dropped wheels
     if (state.slip_prev.shape != n or state.slip_valid.shape != n or state.derivative.shape
             != n or state.correction.shape != n or state.active.shape != n):

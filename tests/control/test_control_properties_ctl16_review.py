@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 import sys
 from pathlib import Path
 
@@ -21,6 +22,7 @@ from terrain.control.replay import measured_observations
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionState,
                                       traction_control_step)
+from terrain.errors import ShapeError
 from terrain.run import Run
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -321,3 +323,17 @@ def test_every_logged_sample_reaches_one_call_or_is_counted_dropped(t_imu, t_wh,
             assert np.all(rows[:, 0] <= c.t_s) and np.all(rows[:, 0] > prev)
         assert np.all(c.currents[:, 1:] >= 0.0)
         prev = c.t_s
+
+
+# --- bad input: typed errors naming the argument ------------------------------------------
+
+@pytest.mark.parametrize("shape", [(0,), (1, 1)])
+def test_a_state_of_no_drive_unit_or_not_one_dimensional_is_a_shape_error(shape):
+    """Before: ``TractionState.zeros(0)`` stopped on a bare IndexError ('index 0 is out of
+    bounds'), a state of shape (1, 1) on a bare TypeError ('must be real number, not
+    list'); :class:`TractionController` refuses 0 units already."""
+    z, no = np.zeros(shape), np.zeros(shape, dtype=bool)
+    state = TractionState(z, z, no, z, z, no)
+    with pytest.raises(ShapeError, match=r"one entry per drive unit.*" + re.escape(str(shape))):
+        traction_control_step(TractionControlConfig(), state, SlipTargets(0.1, -0.1, 0.0),
+                              z, z, z, z, 1.0, 0.01)
