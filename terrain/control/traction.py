@@ -495,6 +495,9 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
 
     Raises
     ------
+    ConfigError
+        ``targets`` without the attributes ``traction``, ``braking``, ``steady`` (a plain
+        tuple, None), named.
     ShapeError
         An input array's shape, or a field of ``state``, differs from the state's integral
         ``(n,)`` (named in the message); a state of no drive unit or not one-dimensional.
@@ -530,11 +533,17 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         raise ImplausibleValueError(
             f"traction control step: chassis_speed_m_s is the magnitude of the chassis "
             f"velocity, got {chassis_speed_m_s}", column="chassis_speed_m_s")
+    try:
+        t_traction, t_braking, t_steady = targets.traction, targets.braking, targets.steady
+    except AttributeError:   # a plain tuple (it unpacks as SlipTargets does), None, a number
+        raise ConfigError(f"traction control step: targets must be a SlipTargets or a "
+                          f"desired-slip table row (attributes traction, braking, steady), "
+                          f"got {type(targets).__name__} {targets!r:.60}") from None
     radius = cfg.wheel_radius_m
     global_ok = (math.isfinite(chassis_speed_m_s) and math.isfinite(dt_s) and dt_s > 0.0
                  and age_is_fresh(input_age_s, cfg.max_input_age_s)
-                 and math.isfinite(targets.traction) and math.isfinite(targets.braking)
-                 and math.isfinite(targets.steady))
+                 and math.isfinite(t_traction) and math.isfinite(t_braking)
+                 and math.isfinite(t_steady))
     n = state.integral.shape
     if len(n) != 1 or n[0] == 0:   # (an IndexError or a TypeError further down)
         raise ShapeError(f"traction control step: the state's integral must hold one entry "
@@ -584,11 +593,11 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
             continue
         power = al * vl                                                   # eq. 8.6
         if power > thr_p:
-            mode, target = TRACTION, targets.traction                     # eq. 8.7
+            mode, target = TRACTION, t_traction                           # eq. 8.7
         elif power < -thr_p:
-            mode, target = BRAKING, targets.braking                       # eq. 8.8
+            mode, target = BRAKING, t_braking                             # eq. 8.8
         else:                                                             # eq. 8.9
-            mode, target = STEADY, (targets.traction if one_sided else targets.steady)
+            mode, target = STEADY, (t_traction if one_sided else t_steady)
         desired = target if vl > 0.0 else (-target if vl < 0.0 else 0.0)   # sgn(v_long)
         use = max(abs(rs), abs(vl)) >= thr_w
         error = desired - sl if use else 0.0                              # eq. 8.1

@@ -22,7 +22,7 @@ from terrain.control.replay import measured_observations
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionState,
                                       traction_control_step)
-from terrain.errors import ShapeError
+from terrain.errors import ConfigError, ShapeError
 from terrain.run import Run
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -337,3 +337,13 @@ def test_a_state_of_no_drive_unit_or_not_one_dimensional_is_a_shape_error(shape)
     with pytest.raises(ShapeError, match=r"one entry per drive unit.*" + re.escape(str(shape))):
         traction_control_step(TractionControlConfig(), state, SlipTargets(0.1, -0.1, 0.0),
                               z, z, z, z, 1.0, 0.01)
+
+
+@pytest.mark.parametrize("targets", [(0.1, -0.15, 0.0), None, 0.1, "ICE"])
+def test_targets_that_are_not_a_targets_record_are_a_config_error_naming_them(targets):
+    """Before: a plain tuple ``(traction, braking, steady)`` (SlipTargets unpacks as one)
+    stopped on a bare AttributeError ''tuple' object has no attribute 'traction''."""
+    one_ = np.ones(1)
+    with pytest.raises(ConfigError, match="targets must be a SlipTargets"):
+        traction_control_step(TractionControlConfig(), TractionState.zeros(1), targets,
+                              one_, one_, one_, one_, 1.0, 0.01)
