@@ -61,9 +61,14 @@ def traction_acceleration_limit(terrain: TerrainParams, slip: float) -> float:
     Raises
     ------
     ConfigError
+        ``terrain`` not a :class:`TerrainParams` (a name: pass ``get_terrain(name)``);
         ``slip`` not a real number (text, ``None``, a boolean; named) or its magnitude not
         in [0, 1] (NaN included).
     """
+    if not isinstance(terrain, TerrainParams):   # a name: AttributeError 'str' ... 'curve'
+        raise ConfigError(f"traction_acceleration_limit needs a catalogue entry "
+                          f"(TerrainParams, get_terrain(name)), got {type(terrain).__name__} "
+                          f"{terrain!r:.60}")
     config_numbers("traction_acceleration_limit", slip=slip)
     s = abs(float(slip))
     if not s <= 1.0:   # NaN fails: a NaN limit; beyond 1 the curve is read past full spin

@@ -18,12 +18,17 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from terrain.control.estimators import WheelImuObserver
+from terrain.control.feedforward import traction_acceleration_limit
 from terrain.control.replay import measured_observations
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionState,
                                       traction_control_step)
 from terrain.errors import ConfigError, ShapeError
 from terrain.run import Run
+from terrain.terramechanics import (get_terrain, soil_resistance_coefficient,
+                                    traction_coefficient)
+from terrain.terramechanics.catalogue import TERRAIN_NAMES
+from terrain.terramechanics.resistance import G_M_S2
 
 sys.path.insert(0, str(Path(__file__).parent))
 from control_helpers import observation  # noqa: E402
@@ -347,3 +352,17 @@ def test_targets_that_are_not_a_targets_record_are_a_config_error_naming_them(ta
     with pytest.raises(ConfigError, match="targets must be a SlipTargets"):
         traction_control_step(TractionControlConfig(), TractionState.zeros(1), targets,
                               one_, one_, one_, one_, 1.0, 0.01)
+
+
+@FAST
+@given(st.sampled_from(sorted(TERRAIN_NAMES)), st.floats(0.0, 1.0))
+def test_the_acceleration_limit_refuses_a_name_and_reads_an_entry(name, slip):
+    """``traction_acceleration_limit("ICE", s)`` stopped on AttributeError ''str' object
+    has no attribute 'curve''; now a ConfigError saying to pass ``get_terrain(name)`` (as
+    :func:`desired_slip` does); the entry gives ``g (mu(s) - rho(s))``."""
+    with pytest.raises(ConfigError, match="get_terrain"):
+        traction_acceleration_limit(name, slip)
+    ter = get_terrain(name)
+    assert traction_acceleration_limit(ter, slip) == pytest.approx(
+        G_M_S2 * float(traction_coefficient(ter.curve, slip)
+                       - soil_resistance_coefficient(ter, slip)), rel=1e-12, abs=1e-12)
