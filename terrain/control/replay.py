@@ -14,9 +14,10 @@ from __future__ import annotations
 from typing import Iterator
 
 import numpy as np
+import pandas as pd
 
 from terrain.errors import (ClockError, ConfigError, DataFormatError, MissingColumnError,
-                            config_numbers)
+                            NonNumericError, config_numbers)
 from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.closed_loop import Observation
 
@@ -90,6 +91,9 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
         A radius or rate that is not a real number (named), or not finite and > 0.
     MissingColumnError
         A stream or channel missing (named, with the run).
+    NonNumericError
+        A channel holding a value that is not a real number (text, a boolean), named with
+        the run, the column and the first such row.
     DataFormatError
         A stream without samples, or whose times are not finite and non-decreasing (named,
         with the run, the column ``t_s`` and the first such row: a sample out of order
@@ -115,6 +119,8 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
         if run.streams[stream].empty:
             raise DataFormatError(f"run {run.run_id} has no {stream} samples: nothing to "
                                   "replay", path=run.source or None)
+        for col in cols:   # text stopped on numpy's bare ValueError, a boolean was read as 1
+            _refuse_non_numbers(run, stream, col)
         t = run.streams[stream][TIME].to_numpy(dtype=float)
         bad = times_out_of_order(t, strict=False)
         if bad.size:   # the cuts below search sorted times: a sample out of order is lost
@@ -142,6 +148,23 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     after = {name: len(data[name]) - int(np.searchsorted(data[name][:, 0], t_last, "right"))
              for name in ("imu", "wheels")}
     return MeasuredObservations(_calls(data, t0, period, last), before, after)
+
+
+def _refuse_non_numbers(run: Run, stream: str, col: str) -> None:
+    """Raise a :class:`~terrain.errors.NonNumericError` naming the run's file, the stream's
+    column and the first row whose value is not a real number (text, a boolean); missing
+    values (NaN, None) pass, as NaN: the estimators skip and count them."""
+    values = run.streams[stream][col]
+    if values.dtype.kind in "iuf":
+        return
+    as_numbers = pd.to_numeric(values, errors="coerce")
+    bad = np.flatnonzero((as_numbers.isna() & values.notna()).to_numpy()
+                         | values.map(lambda x: isinstance(x, (bool, np.bool_))).to_numpy())
+    if bad.size:
+        i = int(bad[0])
+        raise NonNumericError(f"run {run.run_id}: {stream} value {values.iloc[i]!r:.40} is not "
+                              f"a real number; {bad.size} such row(s)",
+                              path=run.source or None, column=col, row=i)
 
 
 def _calls(data: dict[str, np.ndarray], t0: float, period: float, last: int

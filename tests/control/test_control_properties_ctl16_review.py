@@ -23,7 +23,7 @@ from terrain.control.replay import measured_observations
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionState,
                                       traction_control_step)
-from terrain.errors import ConfigError, ShapeError
+from terrain.errors import ConfigError, NonNumericError, ShapeError
 from terrain.run import Run
 from terrain.terramechanics import (get_terrain, soil_resistance_coefficient,
                                     traction_coefficient)
@@ -366,3 +366,26 @@ def test_the_acceleration_limit_refuses_a_name_and_reads_an_entry(name, slip):
     assert traction_acceleration_limit(ter, slip) == pytest.approx(
         G_M_S2 * float(traction_coefficient(ter.curve, slip)
                        - soil_resistance_coefficient(ter, slip)), rel=1e-12, abs=1e-12)
+
+
+@pytest.mark.parametrize("stream, column, bad", [("imu", "ax", "a"), ("imu", "t_s", "x"),
+                                                 ("wheels", "vel_l", True),
+                                                 ("wheels", "cur_r", "2 A")])
+def test_a_logged_value_that_is_not_a_number_is_named_with_its_column_and_row(
+        stream, column, bad):
+    """Before: text stopped on numpy's bare ValueError ('could not convert string to
+    float: 'a''), naming neither the stream, the column nor the row; a boolean was read
+    as 1. Missing values (None) still pass as NaN, which the estimators skip and count."""
+    t = [0.0, 0.1, 0.2]
+    streams = {"imu": pd.DataFrame({"t_s": t, "wx": 0.0, "wy": 0.0, "wz": 0.0, "ax": 0.0,
+                                    "ay": 0.0, "az": 9.81}),
+               "wheels": pd.DataFrame({"t_s": t, "vel_l": 1.0, "vel_r": 1.0, "cur_l": 1.0,
+                                       "cur_r": 1.0})}
+    ok = Run("r", "test", None, {k: v.copy() for k, v in streams.items()})
+    ok.streams["imu"]["ax"] = pd.Series([0.0, None, 1.0], dtype=object)
+    assert len(list(measured_observations(ok, 0.2, 10.0))) == 3
+    frame = streams[stream]
+    frame[column] = pd.Series([*frame[column][:2], bad], dtype=object)
+    with pytest.raises(NonNumericError) as info:
+        measured_observations(Run("r", "test", None, streams, source="run.csv"), 0.2, 10.0)
+    assert (info.value.column, info.value.row, info.value.path) == (column, 2, "run.csv")
