@@ -6,6 +6,7 @@ streaming estimators and the measured replay over any grouping of their samples.
 from __future__ import annotations
 
 import dataclasses
+import json
 import math
 import re
 import sys
@@ -17,8 +18,10 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
+from terrain.control.closed_loop import run_closed_loop
 from terrain.control.estimators import WheelImuObserver
 from terrain.control.feedforward import traction_acceleration_limit
+from terrain.control.grid import compare
 from terrain.control.replay import measured_observations
 from terrain.control.traction import (BRAKING, STEADY, TRACTION, SlipTargets,
                                       TractionControlConfig, TractionState,
@@ -389,3 +392,117 @@ def test_a_logged_value_that_is_not_a_number_is_named_with_its_column_and_row(
     with pytest.raises(NonNumericError) as info:
         measured_observations(Run("r", "test", None, streams, source="run.csv"), 0.2, 10.0)
     assert (info.value.column, info.value.row, info.value.path) == (column, 2, "run.csv")
+
+
+# --- the grid's comparison against a per-cell brute force ---------------------------------
+
+def _maybe(lo, hi):
+    return st.one_of(st.none(), st.floats(lo, hi))
+
+
+run_metrics = st.fixed_dictionaries({
+    "peak_slip": st.floats(0.01, 1.0), "energy_j_per_m": _maybe(1.0, 500.0),
+    "time_to_speed_s": _maybe(0.1, 20.0), "slip_rmse": _maybe(0.0, 1.0),
+    "steady_slip_within_0_02": _maybe(0.0, 1.0), "mean_speed_m_s": st.floats(0.0, 2.0),
+    "terrain_accuracy": st.floats(0.0, 1.0)})
+
+
+def _mean(xs):
+    xs = [x for x in xs if x is not None]
+    return sum(xs) / len(xs) if xs else math.nan
+
+
+def _same(got, want):
+    if want is None or math.isnan(want):
+        assert got is None or math.isnan(float(got)), (got, want)
+    else:
+        assert float(got) == pytest.approx(want, rel=1e-9)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.tuples(st.sampled_from(["ICE", "SNOW"]), st.integers(0, 4), run_metrics,
+                          run_metrics), min_size=1, max_size=8,
+                unique_by=lambda r: (r[0], r[1])))
+def test_compare_equals_a_per_cell_brute_force(cells):
+    """:func:`compare` per (vehicle, terrain, scenario) against plain Python over the seeds:
+    means over the runs that have a value (None left out and counted), the cuts and the
+    time increase paired over the seeds where both runs have one, whatever is missing."""
+    rows = [{"vehicle": "husky", "terrain": ter, "scenario": "straight_accel", "seed": seed,
+             "controller": ctrl, **m}
+            for ter, seed, off, on in cells for ctrl, m in (("off", off), ("traction", on))]
+    out = compare(pd.DataFrame(rows)).set_index("terrain")
+    for ter in {c[0] for c in cells}:
+        mine = [(c[2], c[3]) for c in cells if c[0] == ter]
+        r = out.loc[ter]
+        offs, ons = [o for o, _ in mine], [n for _, n in mine]
+        _same(r["runs"], len(mine))
+        _same(r["peak_slip_cut"], 1 - _mean([n["peak_slip"] for n in ons])
+              / _mean([o["peak_slip"] for o in offs]))
+        for key, short in (("peak_slip", "peak_slip"), ("energy_j_per_m", "energy"),
+                           ("slip_rmse", "slip_rmse"), ("time_to_speed_s", "time_to_speed"),
+                           ("mean_speed_m_s", "mean_speed")):
+            _same(r[f"{short}_off"], _mean([o[key] for o in offs]))
+            _same(r[f"{short}_on"], _mean([n[key] for n in ons]))
+        for key, short in (("energy_j_per_m", "energy_runs"), ("slip_rmse", "slip_rmse_runs"),
+                           ("time_to_speed_s", "time_to_speed_reached")):
+            _same(r[f"{short}_off"], sum(o[key] is not None for o in offs))
+            _same(r[f"{short}_on"], sum(n[key] is not None for n in ons))
+        for key, col, ratio in (("energy_j_per_m", "energy_cut", lambda a, b: 1 - b / a),
+                                ("time_to_speed_s", "time_increase", lambda a, b: b / a - 1)):
+            pairs = [(o[key], n[key]) for o, n in mine
+                     if o[key] is not None and n[key] is not None]
+            _same(r[col], ratio(_mean([a for a, _ in pairs]), _mean([b for _, b in pairs]))
+                  if pairs else math.nan)
+        _same(r["steady_within_0_02_on"], _mean([n["steady_slip_within_0_02"] for n in ons]))
+        _same(r["steady_within_0_02_runs_on"],
+              sum(n["steady_slip_within_0_02"] is not None for n in ons))
+        _same(r["terrain_accuracy_on"], _mean([n["terrain_accuracy"] for n in ons]))
+
+
+# --- the closed loop on the simulator -----------------------------------------------------
+
+@settings(max_examples=6, deadline=None)
+@given(st.sampled_from(["husky", "agrimaro"]), st.sampled_from(sorted(TERRAIN_NAMES)),
+       st.sampled_from(["straight_accel", "slope_turn"]), st.booleans(), st.integers(0, 50))
+def test_closed_loop_energies_shares_and_commands_are_physical(vehicle, terrain, scenario, on,
+                                                               seed):
+    """Any catalogued terrain, vehicle, scenario and seed (1 s, controller on or in shadow
+    mode): the mechanical energy the motors deliver never exceeds what the drive passes to
+    them (efficiency <= 1), the energies are >= 0, the shares lie in [0, 1], the true peak
+    slip is a slip (<= 1), and every command the loop applied is within the wheel speed
+    limit (or the low level's own beyond it) and on the low-level command's side of zero."""
+    sim, loop, m = run_closed_loop(vehicle, terrain, scenario, on, seed, duration_s=1.0)
+    if m["energy_j_per_m"] is not None:
+        assert 0.0 <= m["mech_energy_j_per_m"] <= m["drive_energy_j_per_m"] + 1e-9
+        assert m["energy_j_per_m"] >= 0.0
+    for key in ("enabled_fraction", "safe_fraction", "terrain_accuracy"):
+        assert 0.0 <= m[key] <= 1.0
+    assert m["distance_m"] >= 0.0 and 0.0 <= m["peak_slip"] <= 1.0 + 1e-12
+    w_max = loop.controller.config.omega_max_rad_s
+    for r in loop.log:
+        low = np.asarray(r["omega_low_level"], dtype=float)
+        cmd = low + (r["correction"] if on else 0.0)
+        assert np.all(np.abs(cmd) <= np.maximum(w_max, np.abs(low)) + 1e-9)
+        assert np.all(cmd * low >= 0.0)
+
+
+# --- the slip table's JSON round trip -----------------------------------------------------
+
+def test_the_slip_table_json_rebuilds_the_same_table(capsys):
+    """``terrain slip-table --json``: its config rebuilds the rules' settings exactly, every
+    row reads back as a valid :class:`DesiredSlip` with the library's exact values (JSON
+    keeps the floats), UNKNOWN last, and the table built from the printed config and
+    classes is the one printed."""
+    from terrain.cli import main
+    from terrain.control.desired_slip import (FALLBACK_LABEL, DesiredSlip, DesiredSlipConfig,
+                                              build_slip_table)
+    assert main(["slip-table", "--json"]) == 0
+    data = json.loads(capsys.readouterr().out)
+    config = DesiredSlipConfig(**data["config"])
+    assert config == DesiredSlipConfig()
+    rows = [DesiredSlip(r["terrain"], r["target_slip_traction"], r["target_slip_braking"],
+                        r["target_slip_steady"], r["source"], r["method"])
+            for r in data["rows"]]
+    assert rows[-1].terrain == FALLBACK_LABEL
+    table = build_slip_table([r.terrain for r in rows[:-1]], config)
+    assert [*table.entries.values(), table.fallback] == rows
