@@ -38,7 +38,7 @@ from typing import Callable, Mapping, NamedTuple, Protocol
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_integer, config_positive
 from terrain.estimation.agrimaro import SENSOR_ROWS, AgriMaRoModel, noise_derived_settings
 from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict, project_to_bounds
 from terrain.estimation.skid_steer_slip import SENSOR_ROWS as SLIP_SENSOR_ROWS
@@ -166,8 +166,8 @@ class AgriMaRoVisualOdometryEKF:
     Raises
     ------
     ConfigError
-        Another ``imu`` view; a non-positive block, fewer than 2 blocks or a non-positive
-        speed-slope window.
+        Another ``imu`` view; a block or a speed-slope window that is not a finite number
+        > 0; ``adapt_blocks`` not an integer >= 2 (named).
 
     Notes
     -----
@@ -188,11 +188,11 @@ class AgriMaRoVisualOdometryEKF:
         if imu not in AGRIMARO_IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(AGRIMARO_IMU_VIEWS)} for the "
                               f"AgriMaRo EKF, got {imu!r}")
-        if not (accel_block_s > 0 and int(adapt_blocks) >= 2):
-            raise ConfigError(f"accel_block_s must be > 0 and adapt_blocks >= 2, got "
-                              f"{accel_block_s}, {adapt_blocks}")
-        if not speed_slope_s > 0:
-            raise ConfigError(f"speed_slope_s must be > 0, got {speed_slope_s}")
+        # inf: a block that never closes (the accelerometer never read), a speed window that
+        # keeps the whole run; 2.7 blocks were read as 2
+        config_positive("AgriMaRoVisualOdometryEKF", accel_block_s=accel_block_s,
+                        speed_slope_s=speed_slope_s)
+        config_integer("AgriMaRoVisualOdometryEKF adapt_blocks", adapt_blocks, 2)
         self.speed_slope_s = float(speed_slope_s)
         # (t, v_long) of the calls within speed_slope_s (``full-gyro``)
         self._speeds: deque[tuple[float, np.ndarray]] = deque()

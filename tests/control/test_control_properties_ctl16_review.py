@@ -506,3 +506,19 @@ def test_the_slip_table_json_rebuilds_the_same_table(capsys):
     assert rows[-1].terrain == FALLBACK_LABEL
     table = build_slip_table([r.terrain for r in rows[:-1]], config)
     assert [*table.entries.values(), table.fallback] == rows
+
+
+@pytest.mark.parametrize("kwargs, named", [
+    ({"speed_slope_s": math.inf}, "speed_slope_s"), ({"accel_block_s": math.inf}, "accel_block_s"),
+    ({"speed_slope_s": math.nan}, "speed_slope_s"), ({"accel_block_s": -0.1}, "accel_block_s"),
+    ({"adapt_blocks": 2.7}, "adapt_blocks"), ({"adapt_blocks": True}, "adapt_blocks"),
+    ({"adapt_blocks": 1}, "adapt_blocks")])
+def test_agrimaro_ekf_settings_that_are_not_usable_are_refused_by_name(kwargs, named):
+    """Before: an infinite ``speed_slope_s`` (a speed window that keeps the whole run) and
+    an infinite ``accel_block_s`` (a block that never closes: the ``full-averaged`` view
+    never read its accelerometer) were accepted, and ``adapt_blocks`` 2.7 was read as 2."""
+    from terrain.control.estimators import AgriMaRoVisualOdometryEKF
+    with pytest.raises(ConfigError, match=named):
+        AgriMaRoVisualOdometryEKF(**kwargs)
+    assert AgriMaRoVisualOdometryEKF(accel_block_s=0.05, adapt_blocks=2,
+                                     speed_slope_s=1.0).speed_slope_s == 1.0

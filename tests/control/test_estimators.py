@@ -85,7 +85,7 @@ def test_estimator_kinds():
         assert (est.imu, est.name) == (view, f"agrimaro-{kind}")
     with pytest.raises(ConfigError, match="imu must be one of"):
         AgriMaRoVisualOdometryEKF(imu="raw")
-    with pytest.raises(ConfigError, match="accel_block_s"):
+    with pytest.raises(ConfigError, match="adapt_blocks"):
         AgriMaRoVisualOdometryEKF(imu="full-averaged", adapt_blocks=1)
     with pytest.raises(ConfigError, match="speed_slope_s"):
         AgriMaRoVisualOdometryEKF(speed_slope_s=0.0)
