@@ -66,6 +66,18 @@ def _window_mask(owner: str, name: str, mask, n: int) -> np.ndarray:
     return m
 
 
+def _window_sides(owner: str, name: str, values, n: int) -> np.ndarray:
+    """The first two columns (left, right) of ``values``, refused (ShapeError naming
+    ``owner`` and ``name``) unless it has one row per window and at least two columns: a
+    one-column array was broadcast onto both sides and scored twice, another row count
+    was a bare numpy error."""
+    x = np.asarray(values, dtype=float)
+    if x.ndim != 2 or x.shape[0] != n or x.shape[1] < 2:
+        raise ShapeError(f"{owner}: {name} must have shape ({n}, >= 2) (left and right slip "
+                         f"of each window first), got {x.shape}")
+    return x[:, :2]
+
+
 def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarray:
     """Mask of the steady straight-driving windows (module docstring).
 
@@ -155,10 +167,13 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
     ------
     ShapeError
         ``mask`` is not a boolean array of one value per window (an integer 0/1 mask was
-        read as row labels: other windows scored, silently).
+        read as row labels: other windows scored, silently), or ``pred`` or ``truth`` is
+        not ``(n, >= 2)`` with ``n`` the windows of ``meta`` (a one-column prediction was
+        broadcast onto both sides and scored twice).
     """
     mask = _window_mask("error_table", "mask", mask, len(meta))
-    err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
+    err = np.abs(_window_sides("error_table", "pred", pred, len(meta))
+                 - _window_sides("error_table", "truth", truth, len(meta)))
     frame = meta.loc[mask, list(by) + ["run_id"]].copy()
     frame["e1"] = err[mask, 0]
     frame["e2"] = err[mask, 1]
@@ -190,8 +205,8 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     ----------
     pred : ndarray, shape (n, >=2)
         Predicted ``slip_1, slip_2`` in the first two columns.
-    std : ndarray, shape (n, 2)
-        Their standard deviations (dimensionless slip).
+    std : ndarray, shape (n, >=2)
+        Their standard deviations (dimensionless slip) in the first two columns.
     truth : ndarray, shape (n, >=2)
         True ``slip_1, slip_2``.
     meta : pandas.DataFrame, shape (n, ...)
@@ -217,11 +232,13 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
     ------
     ShapeError
         ``mask`` is not a boolean array of one value per window (window indices were taken
-        for a mask: other windows scored, silently).
+        for a mask: other windows scored, silently), or ``pred``, ``std`` or ``truth`` is
+        not ``(n, >= 2)`` with ``n`` the windows of ``meta``.
     """
     mask = _window_mask("std_calibration_table", "mask", mask, len(meta))
-    err = np.abs(np.asarray(pred, float)[:, :2] - np.asarray(truth, float)[:, :2])
-    std = np.asarray(std, float)
+    err = np.abs(_window_sides("std_calibration_table", "pred", pred, len(meta))
+                 - _window_sides("std_calibration_table", "truth", truth, len(meta)))
+    std = _window_sides("std_calibration_table", "std", std, len(meta))
     with np.errstate(divide="ignore", invalid="ignore"):    # std 0: inf (uncovered) or NaN
         u = err / std
     pos = np.flatnonzero(mask)

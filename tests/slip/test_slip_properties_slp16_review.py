@@ -441,3 +441,37 @@ def test_slip_regressor_does_not_depend_on_the_order_of_its_training_windows(see
     np.testing.assert_allclose(b.predict_std(Xt), a.predict_std(Xt), rtol=1e-9)
     # and its predictions are row by row
     np.testing.assert_array_equal(a.predict(Xt[::-1]), a.predict(Xt)[::-1])
+
+
+# --- typed refusals -----------------------------------------------------------------------
+
+_META3 = pd.DataFrame({"terrain": ["A", "B", "A"], "scenario": ["x", "x", "y"],
+                       "run_id": ["r1", "r2", "r1"]})
+
+
+@pytest.mark.parametrize("which", ["pred", "truth"])
+@pytest.mark.parametrize("shape", [(3, 1), (3,), (2, 2), (4, 2)])
+def test_error_table_refuses_predictions_that_are_not_two_sides_per_window(which, shape):
+    # a one-column prediction was broadcast onto both sides and scored twice (n_scored 4
+    # for the 2 windows of terrain A); a row count other than meta's was a bare numpy error
+    arrays = {"pred": np.zeros((3, 2)), "truth": np.zeros((3, 2))}
+    arrays[which] = np.zeros(shape)
+    with pytest.raises(ShapeError, match=f"error_table: {which}"):
+        error_table(arrays["pred"], arrays["truth"], _META3, np.ones(3, bool))
+
+
+@pytest.mark.parametrize("which", ["pred", "std", "truth"])
+@pytest.mark.parametrize("shape", [(3, 1), (2, 2), (4, 2)])
+def test_std_calibration_table_refuses_arrays_that_are_not_two_sides_per_window(which, shape):
+    arrays = {"pred": np.zeros((3, 2)), "std": np.ones((3, 2)), "truth": np.zeros((3, 2))}
+    arrays[which] = np.zeros(shape)
+    with pytest.raises(ShapeError, match=f"std_calibration_table: {which}"):
+        std_calibration_table(arrays["pred"], arrays["std"], arrays["truth"], _META3,
+                              np.ones(3, bool))
+
+
+def test_error_tables_take_the_first_two_columns_of_wider_predictions():
+    pred = np.array([[0.1, 0.2, 9.0, 9.0]] * 3)
+    tab = error_table(pred, np.zeros((3, 2)), _META3, np.ones(3, bool))
+    assert list(tab["n_scored"]) == [4, 2]
+    assert tab["median_abs_err"].iloc[1] == pytest.approx(0.15)
