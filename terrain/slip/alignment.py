@@ -29,8 +29,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from terrain.errors import (ConfigError, EstimationError, TimeStepError, config_numbers,
-                            config_positive)
+from terrain.errors import (ConfigError, EstimationError, ShapeError, TimeStepError,
+                            config_numbers, config_positive)
 
 
 @dataclass(frozen=True)
@@ -157,8 +157,11 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
     TimeStepError
         ``t_ref_s`` or ``t_sig_s`` (their finite samples) not strictly increasing: the
         argument, the first offending sample and the count are named.
+    ShapeError
+        A time and its values not 1-D of one shape (the arguments are named).
     EstimationError
-        Too little overlap or a flat signal (no transient to align on).
+        Fewer than 20 finite samples in a signal, too little overlap, or a flat signal (no
+        transient to align on); the signal, ``ref`` or ``sig``, is named.
     """
     # (inf overflowed int() below, NaN compared False)
     config_positive("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
@@ -168,8 +171,8 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
         raise ConfigError(f"max_lag_s {max_lag_s:g} s is under half a grid step of "
                           f"{1 / rate_hz:g} s (rate_hz {rate_hz:g}): only the lag 0 would be "
                           "searched")
-    tr, r = _finite(t_ref_s, ref, "t_ref_s")
-    ts, s = _finite(t_sig_s, sig, "t_sig_s")
+    tr, r = _finite(t_ref_s, ref, "t_ref_s", "ref")
+    ts, s = _finite(t_sig_s, sig, "t_sig_s", "sig")
     t0, t1 = max(tr[0], ts[0]), min(tr[-1], ts[-1])
     n = int(np.floor((t1 - t0) * rate_hz)) + 1 if t1 > t0 else 0
     if n < 4 * max_k or n < 20:
@@ -181,8 +184,10 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
     a -= a.mean()
     b -= b.mean()
     na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    if na == 0 or nb == 0:
-        raise EstimationError("a signal is constant: no transient to estimate the lag from")
+    flat = [name for name, norm in (("ref", na), ("sig", nb)) if norm == 0]
+    if flat:
+        raise EstimationError(f"{' and '.join(flat)} is constant over the {t1 - t0:.2f} s "
+                              "overlap: no transient to estimate the lag from")
     nfft = 1 << int(np.ceil(np.log2(2 * n)))
     xc = np.fft.irfft(np.fft.rfft(b, nfft) * np.conj(np.fft.rfft(a, nfft)), nfft)
     lags = np.arange(-max_k, max_k + 1)
@@ -237,8 +242,8 @@ def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np
     if est.at_range_end:
         reasons.append(f"peak at the end of the searched range +-{max_lag_s:g} s")
     if gate.halves_tolerance_s is not None:
-        tr, r = _finite(t_ref_s, ref, "t_ref_s")
-        ts, s = _finite(t_sig_s, sig, "t_sig_s")
+        tr, r = _finite(t_ref_s, ref, "t_ref_s", "ref")
+        ts, s = _finite(t_sig_s, sig, "t_sig_s", "sig")
         mid = 0.5 * (max(tr[0], ts[0]) + min(tr[-1], ts[-1]))
         halves = []
         for first in (True, False):
@@ -256,18 +261,21 @@ def gated_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig: np
     return replace(est, applied=not reasons, reason="; ".join(reasons))
 
 
-def _finite(t: np.ndarray, v: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
-    """The samples of ``t`` (named ``name`` in errors) and ``v`` where both are finite;
-    their times must increase strictly (``np.interp`` reads unsorted or duplicated times
-    silently wrong: a planted 0.37 s lag came out -0.75 s at correlation 0.96)."""
+def _finite(t: np.ndarray, v: np.ndarray, name: str, v_name: str
+            ) -> tuple[np.ndarray, np.ndarray]:
+    """The samples of ``t`` and ``v`` (named ``name`` and ``v_name`` in errors) where both
+    are finite; their times must increase strictly (``np.interp`` reads unsorted or
+    duplicated times silently wrong: a planted 0.37 s lag came out -0.75 s at correlation
+    0.96)."""
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
     if t.shape != v.shape or t.ndim != 1:
-        raise EstimationError(f"time and values must be 1-D of one shape, got {t.shape}, "
-                              f"{v.shape}")
+        raise ShapeError(f"{name}, {v_name} must be 1-D of one shape, got {t.shape}, "
+                         f"{v.shape}")
     ok = np.isfinite(t) & np.isfinite(v)
     if ok.sum() < 20:
-        raise EstimationError("fewer than 20 finite samples")
+        raise EstimationError(f"fewer than 20 finite samples in {v_name} ({int(ok.sum())} of "
+                              f"{ok.size} with a finite {name})")
     idx = np.flatnonzero(ok)
     bad = np.flatnonzero(np.diff(t[idx]) <= 0)
     if bad.size:

@@ -475,3 +475,35 @@ def test_error_tables_take_the_first_two_columns_of_wider_predictions():
     tab = error_table(pred, np.zeros((3, 2)), _META3, np.ones(3, bool))
     assert list(tab["n_scored"]) == [4, 2]
     assert tab["median_abs_err"].iloc[1] == pytest.approx(0.15)
+
+
+_T = np.arange(200) / 100.0
+
+
+@pytest.mark.parametrize("which", ["ref", "sig"])
+@pytest.mark.parametrize("n_finite", [0, 5, 19])
+def test_estimate_lag_names_the_signal_with_too_few_finite_samples(which, n_finite):
+    # "fewer than 20 finite samples" named neither signal
+    x = np.full(_T.size, np.nan)
+    x[:n_finite] = np.sin(9 * _T[:n_finite])
+    args = {"ref": np.sin(9 * _T), "sig": np.sin(9 * _T)}
+    args[which] = x
+    with pytest.raises(EstimationError,
+                       match=rf"fewer than 20 finite samples in {which} \({n_finite} of"):
+        estimate_lag(_T, args["ref"], _T, args["sig"], max_lag_s=0.1)
+
+
+@pytest.mark.parametrize("which", ["ref", "sig"])
+def test_estimate_lag_names_the_constant_signal(which):
+    # "a signal is constant" did not say which one (a stuck encoder or a frozen camera?)
+    args = {"ref": np.sin(9 * _T), "sig": np.sin(9 * _T)}
+    args[which] = np.full(_T.size, 0.7)
+    with pytest.raises(EstimationError, match=f"{which} is constant"):
+        estimate_lag(_T, args["ref"], _T, args["sig"], max_lag_s=0.1)
+    with pytest.raises(EstimationError, match=f"{which} is constant"):
+        gated_lag(_T, args["ref"], _T, args["sig"], max_lag_s=0.1)
+
+
+def test_estimate_lag_refuses_two_dimensional_series_as_a_shape_error():
+    with pytest.raises(ShapeError, match="t_ref_s, ref"):
+        estimate_lag(_T[:, None], _T[:, None], _T, _T, max_lag_s=0.1)

@@ -215,4 +215,5 @@ def test_a_lag_that_could_not_be_estimated_says_why():
     imu = pd.DataFrame({"t_s": t, "wz": np.zeros(10)})
     run = SimpleNamespace(run_id="r/SNOW/00", streams={"wheels": wheels, "imu": imu})
     est = skid_steer_encoder_lag(run, 0.555)
-    assert not est.estimated and est.reason == "fewer than 20 finite samples"
+    assert not est.estimated
+    assert est.reason == "fewer than 20 finite samples in ref (10 of 10 with a finite t_ref_s)"
