@@ -78,7 +78,8 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         Inconsistent lengths (times, speeds, slips, ``chi``, ``lateral_m_s``, yaw rate), or
         no sample.
     TimeStepError
-        Times not finite or not strictly increasing.
+        Times not finite or not strictly increasing (the first such sample and the count
+        are named).
     NonFiniteInputError
         A speed, slip, ``chi``, lateral velocity or yaw rate sample that is NaN or infinite
         (the pose would be NaN from it on); the message names the argument and counts them.
@@ -95,8 +96,15 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
                          f"{vl.shape}, {vr.shape}")
     if t.size == 0:
         raise ShapeError("dead_reckon: no sample (the pose starts at the first one)")
-    if times_out_of_order(t).size:
-        raise TimeStepError("dead_reckon: times must be finite and strictly increasing")
+    bad = times_out_of_order(t)
+    if bad.size:    # the first offending sample and the count, as resample names them
+        i = int(bad[0])
+        what = ("not finite" if not np.isfinite(t[i])
+                else "before the previous one" if t[i] < t[i - 1]
+                else "not after the previous one")
+        raise TimeStepError(f"dead_reckon: t_s must be finite and strictly increasing: t_s "
+                            f"sample {i} ({t[i]:.6g} s) is {what}, {bad.size} such sample(s) "
+                            "in all")
     if yaw_rate_rad_s is None:      # inf made the wheels' yaw rate 0: a turn driven straight
         config_positive("dead_reckon", track_m=track_m)
     _finite("v_left_m_s", vl)

@@ -507,3 +507,14 @@ def test_estimate_lag_names_the_constant_signal(which):
 def test_estimate_lag_refuses_two_dimensional_series_as_a_shape_error():
     with pytest.raises(ShapeError, match="t_ref_s, ref"):
         estimate_lag(_T[:, None], _T[:, None], _T, _T, max_lag_s=0.1)
+
+
+@pytest.mark.parametrize("t, first, kind", [
+    ([0.0, 1.0, 2.0, 1.5, 3.0], 3, "before"),
+    ([0.0, 1.0, 1.0, 2.0, 3.0], 2, "not after"),
+    ([0.0, np.nan, 2.0, 3.0, 4.0], 1, "not finite"),
+    ([0.0, 1.0, 2.0, 3.0, np.inf], 4, "not finite")])
+def test_dead_reckon_names_the_first_time_out_of_order(t, first, kind):
+    # "times must be finite and strictly increasing" said neither which sample nor how many
+    with pytest.raises(TimeStepError, match=rf"t_s sample {first} \(.*\) is {kind}.*1 such"):
+        dead_reckon(np.array(t), np.ones(5), np.ones(5), 0.5)
