@@ -518,3 +518,18 @@ def test_dead_reckon_names_the_first_time_out_of_order(t, first, kind):
     # "times must be finite and strictly increasing" said neither which sample nor how many
     with pytest.raises(TimeStepError, match=rf"t_s sample {first} \(.*\) is {kind}.*1 such"):
         dead_reckon(np.array(t), np.ones(5), np.ones(5), 0.5)
+
+
+@pytest.mark.parametrize("name", ["t_s", "v_left_m_s", "v_right_m_s", "slip_left", "slip_right",
+                                  "chi", "lateral_m_s", "yaw_rate_rad_s"])
+def test_dead_reckon_refuses_booleans_by_name(name):
+    # a boolean mask passed for a speed was integrated as 1 m/s (5 samples: x = 4 m)
+    args = {"t_s": np.arange(5.0), "v_left_m_s": np.ones(5), "v_right_m_s": np.ones(5),
+            "track_m": 0.5}
+    args[name] = np.ones(5, dtype=bool) if name != "t_s" else np.array([0, 1] * 2 + [0], bool)
+    with pytest.raises(EstimationError, match=f"dead_reckon: {name} must hold numbers"):
+        dead_reckon(**args)
+    if name in ("chi", "lateral_m_s", "slip_left"):
+        args[name] = True
+        with pytest.raises(EstimationError, match=f"dead_reckon: {name} must hold numbers"):
+            dead_reckon(**args)
