@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from terrain.errors import (ConfigError, EstimationError, ShapeError, TimeStepError,
-                            config_numbers, config_positive)
+                            config_numbers, config_positive, holds_booleans)
 
 
 @dataclass(frozen=True)
@@ -160,8 +160,9 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
     ShapeError
         A time and its values not 1-D of one shape (the arguments are named).
     EstimationError
-        Fewer than 20 finite samples in a signal, too little overlap, or a flat signal (no
-        transient to align on); the signal, ``ref`` or ``sig``, is named.
+        Fewer than 20 finite samples in a signal, too little overlap, a flat signal (no
+        transient to align on), or a time or signal of booleans; the signal, ``ref`` or
+        ``sig`` (or its time), is named.
     """
     # (inf overflowed int() below, NaN compared False)
     config_positive("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
@@ -267,6 +268,9 @@ def _finite(t: np.ndarray, v: np.ndarray, name: str, v_name: str
     are finite; their times must increase strictly (``np.interp`` reads unsorted or
     duplicated times silently wrong: a planted 0.37 s lag came out -0.75 s at correlation
     0.96)."""
+    for what, x in ((name, t), (v_name, v)):
+        if holds_booleans(x):   # a thresholded speed was correlated as 0/1 steps
+            raise EstimationError(f"{what} must hold numbers, got booleans")
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
     if t.shape != v.shape or t.ndim != 1:

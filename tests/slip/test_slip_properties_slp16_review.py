@@ -533,3 +533,14 @@ def test_dead_reckon_refuses_booleans_by_name(name):
         args[name] = True
         with pytest.raises(EstimationError, match=f"dead_reckon: {name} must hold numbers"):
             dead_reckon(**args)
+
+
+@pytest.mark.parametrize("name", ["t_ref_s", "ref", "t_sig_s", "sig"])
+def test_estimate_lag_refuses_booleans_by_name(name):
+    # a thresholded (boolean) speed was cross-correlated as 0/1 steps and a lag returned
+    args = {"t_ref_s": _T, "ref": np.sin(9 * _T), "t_sig_s": _T, "sig": np.sin(9 * _T)}
+    args[name] = args[name] > 0.5
+    with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
+        estimate_lag(**args, max_lag_s=0.1)
+    with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
+        gated_lag(**args, max_lag_s=0.1)
