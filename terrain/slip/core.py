@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import ShapeError, config_positive
+from terrain.errors import EstimationError, ShapeError, config_positive, holds_booleans
 from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -47,7 +47,12 @@ def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
     Raises
     ------
     ShapeError
+        Arrays of disagreeing shapes.
+    EstimationError
+        An argument that holds booleans (named).
     """
+    _refuse_booleans(v_bx_m_s=v_bx_m_s, v_by_m_s=v_by_m_s, yaw_rate_rad_s=yaw_rate_rad_s,
+                     positions_m=positions_m, delta_rad=delta_rad)
     vx = np.asarray(v_bx_m_s, dtype=float)
     vy = np.asarray(v_by_m_s, dtype=float)
     r = np.asarray(yaw_rate_rad_s, dtype=float)
@@ -98,7 +103,11 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
     ShapeError
         ``rim_speed_m_s`` does not have the shape ``(N, k)`` of the projected wheel
         velocities.
+    EstimationError
+        An argument that holds booleans (named): a mask given for a rim speed was a slip
+        against 1 m/s.
     """
+    _refuse_booleans(rim_speed_m_s=rim_speed_m_s)
     v_long = wheel_longitudinal_velocity(v_bx_m_s, v_by_m_s, yaw_rate_rad_s, positions_m,
                                          delta_rad)
     rim = np.asarray(rim_speed_m_s, dtype=float)
@@ -142,9 +151,21 @@ def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
         Arrays of disagreeing shapes.
     ConfigError
         ``track_m`` not a finite number > 0 (a negative one would swap the sides).
+    EstimationError
+        An argument that holds booleans (named).
     """
     config_positive("skid_steer_side_slip", track_m=track_m)
+    _refuse_booleans(rim_speed_m_s=rim_speed_m_s, v_bx_m_s=v_bx_m_s,
+                     yaw_rate_rad_s=yaw_rate_rad_s)
     v = np.asarray(v_bx_m_s, dtype=float)
     half = 0.5 * float(track_m)
     return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,
                       np.array([[0.0, half], [0.0, -half]]), dead_band_m_s=dead_band_m_s)
+
+
+def _refuse_booleans(**values) -> None:
+    """Refuse, by name, an argument of numbers that holds booleans (``np.asarray(mask,
+    float)`` silently gave speeds of 0 and 1 m/s)."""
+    for name, value in values.items():
+        if holds_booleans(value):
+            raise EstimationError(f"{name} must hold numbers, got booleans")

@@ -544,3 +544,24 @@ def test_estimate_lag_refuses_booleans_by_name(name):
         estimate_lag(**args, max_lag_s=0.1)
     with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
         gated_lag(**args, max_lag_s=0.1)
+
+
+@pytest.mark.parametrize("name", ["rim_speed_m_s", "v_bx_m_s", "v_by_m_s", "yaw_rate_rad_s",
+                                  "positions_m", "delta_rad"])
+def test_wheel_slip_refuses_booleans_by_name(name):
+    # a boolean rim speed was a slip against 1 m/s
+    args = {"rim_speed_m_s": np.ones((4, 2)), "v_bx_m_s": np.ones(4), "v_by_m_s": np.zeros(4),
+            "yaw_rate_rad_s": np.zeros(4), "positions_m": np.array([[0.0, 0.3], [0.0, -0.3]]),
+            "delta_rad": np.zeros((4, 2))}
+    args[name] = np.ones(np.shape(args[name]), dtype=bool)
+    with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
+        wheel_slip(**args)
+
+
+@pytest.mark.parametrize("name", ["rim_speed_m_s", "v_bx_m_s", "yaw_rate_rad_s"])
+def test_skid_steer_side_slip_refuses_booleans_by_name(name):
+    args = {"rim_speed_m_s": np.ones((4, 2)), "v_bx_m_s": np.ones(4),
+            "yaw_rate_rad_s": np.zeros(4)}
+    args[name] = np.ones(np.shape(args[name]), dtype=bool)
+    with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
+        skid_steer_side_slip(**args, track_m=0.55)
