@@ -124,9 +124,14 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
         read by ``X[mask]`` as column labels: a bare KeyError).
     ConfigError
         The masks overlap or one is empty.
+    ShapeError
+        ``Y`` has another number of rows than ``X`` (a bare numpy IndexError before).
     """
     train = _window_mask("fit_predict", "train", train, len(X))
     test = _window_mask("fit_predict", "test", test, len(X))
+    if np.ndim(Y) < 1 or len(Y) != len(X):
+        raise ShapeError(f"fit_predict: Y must have one row per window of X ({len(X)}), got "
+                         f"shape {np.shape(Y)}")
     if np.any(train & test) or not train.any() or not test.any():
         raise ConfigError("train and test windows must be disjoint and non-empty")
     model = make_model()
@@ -605,7 +610,22 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     -------
     ndarray, shape (n, k)
         NaN outside the ``test`` windows (and for groups without training data elsewhere).
+
+    Raises
+    ------
+    ShapeError
+        ``groups`` without one value per window, or ``train`` or ``test`` not a boolean mask
+        of one value per window (an integer 0/1 mask picked the groups of windows 0 and 1).
+    ConfigError
+        As :func:`fit_predict`.
     """
+    n = len(X)
+    train = _window_mask("leave_one_out", "train", train, n)
+    test = _window_mask("leave_one_out", "test", test, n)
+    groups = np.asarray(groups)
+    if groups.shape != (n,):    # a bare numpy IndexError before
+        raise ShapeError(f"leave_one_out: groups must have shape ({n},) (one per window), got "
+                         f"{groups.shape}")
     out = np.full(Y.shape, np.nan)
     for g in np.unique(groups[test]):
         m = groups == g

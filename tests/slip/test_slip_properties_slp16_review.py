@@ -565,3 +565,33 @@ def test_skid_steer_side_slip_refuses_booleans_by_name(name):
     args[name] = np.ones(np.shape(args[name]), dtype=bool)
     with pytest.raises(EstimationError, match=f"{name} must hold numbers"):
         skid_steer_side_slip(**args, track_m=0.55)
+
+
+def test_fit_predict_refuses_targets_of_another_length():
+    # Y of 5 rows for 6 windows was a bare numpy IndexError ('boolean index did not match')
+    from sklearn.linear_model import LinearRegression
+
+    from terrain.slip.evaluation import fit_predict
+    X = pd.DataFrame({"a": np.arange(6.0)})
+    train = np.array([1, 1, 1, 0, 0, 0], bool)
+    with pytest.raises(ShapeError, match=r"fit_predict: Y must have one row per window of X "
+                                         r"\(6\), got shape \(5, 2\)"):
+        fit_predict(LinearRegression, X, np.zeros((5, 2)), train, ~train)
+
+
+_TRAIN = np.array([1, 1, 1, 0, 0, 0], bool)
+
+
+@pytest.mark.parametrize("groups, train, test, match", [
+    (list("aabbc"), _TRAIN, ~_TRAIN, "groups must have shape"),
+    (list("aabbcc"), _TRAIN, (~_TRAIN).astype(int), "test must be a boolean mask"),
+])
+def test_leave_one_out_refuses_groups_or_masks_not_one_per_window(groups, train, test, match):
+    # groups of 5 for 6 windows was a bare numpy IndexError; an integer 0/1 test mask picked
+    # the groups of windows 0 and 1 before fit_predict saw it
+    from sklearn.linear_model import LinearRegression
+
+    from terrain.slip.evaluation import leave_one_out
+    X = pd.DataFrame({"a": np.arange(6.0)})
+    with pytest.raises(ShapeError, match=f"leave_one_out: {match}"):
+        leave_one_out(LinearRegression, X, np.zeros((6, 2)), np.array(groups), train, test)
