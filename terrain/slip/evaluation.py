@@ -544,6 +544,10 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     ConfigError
         ``min_turn_rad_s`` not a finite number >= 0 or ``track_m`` not a finite number > 0
         (:func:`terrain.errors.config_positive`).
+    ShapeError
+        ``pred`` not ``(n, >= 3)`` (``slip_1, slip_2, chi`` first), or ``run_ids`` or
+        ``terrains`` not ``(n,)``, with ``n`` the windows of ``X`` (bare numpy errors
+        before).
 
     Warns
     -----
@@ -557,6 +561,16 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     config_positive("measured_checks", allow_zero=True, min_turn_rad_s=min_turn_rad_s)
     # (the wheel yaw rate divides by it: 0 gave an infinite RMS, < 0 swapped the sides)
     config_positive("measured_checks", track_m=track_m)
+    n = len(X)
+    pred = np.asarray(pred, dtype=float)
+    if pred.ndim != 2 or pred.shape[0] != n or pred.shape[1] < 3:
+        raise ShapeError(f"measured_checks: pred must have shape ({n}, >= 3) (slip_1, slip_2, "
+                         f"chi of each window first), got {pred.shape}")
+    run_ids, terrains = np.asarray(run_ids), np.asarray(terrains)
+    for name, value in (("run_ids", run_ids), ("terrains", terrains)):
+        if value.shape != (n,):
+            raise ShapeError(f"measured_checks: {name} must have shape ({n},) (one per "
+                             f"window), got {value.shape}")
     wz = X["wz__mean"].to_numpy()
     dv = X["vel_diff__mean"].to_numpy()
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on

@@ -595,3 +595,22 @@ def test_leave_one_out_refuses_groups_or_masks_not_one_per_window(groups, train,
     X = pd.DataFrame({"a": np.arange(6.0)})
     with pytest.raises(ShapeError, match=f"leave_one_out: {match}"):
         leave_one_out(LinearRegression, X, np.zeros((6, 2)), np.array(groups), train, test)
+
+
+def _measured_X(n):
+    return pd.DataFrame({"wz__mean": np.linspace(-0.3, 0.3, n), "vel_diff__mean": np.ones(n),
+                         "cur_l__mean": np.ones(n), "cur_r__mean": np.ones(n),
+                         "phys_slip_l": np.zeros(n), "phys_slip_r": np.zeros(n)})
+
+
+@pytest.mark.parametrize("name, pred, run_ids, terrains", [
+    ("pred", np.zeros((6, 2)), ["r"] * 6, ["A"] * 6),
+    ("pred", np.ones((5, 4)), ["r"] * 6, ["A"] * 6),
+    ("run_ids", np.ones((6, 4)), ["r"] * 4, ["A"] * 6),
+    ("terrains", np.ones((6, 4)), ["r"] * 6, ["A"] * 5)])
+def test_measured_checks_refuse_arrays_not_one_row_per_window(name, pred, run_ids, terrains):
+    # each was a bare numpy IndexError/ValueError (pred without its chi column: 'index 2 is
+    # out of bounds for axis 1 with size 2')
+    from terrain.slip.evaluation import measured_checks
+    with pytest.raises(ShapeError, match=f"measured_checks: {name} must have shape"):
+        measured_checks(_measured_X(6), pred, np.array(run_ids), np.array(terrains), 0.55)
