@@ -157,6 +157,8 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     ConfigError
         ``track_m`` not a finite number > 0 or ``min_turn_rad_s`` not a finite number >= 0
         (:func:`terrain.errors.config_positive`).
+    ShapeError
+        Speeds and yaw rate of shapes that do not broadcast (their shapes are named).
 
     Warns
     -----
@@ -170,6 +172,11 @@ def endo_turning_slip(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
     w = np.asarray(yaw_rate_rad_s, dtype=float)
+    try:
+        np.broadcast_shapes(vl.shape, vr.shape, w.shape)
+    except ValueError:      # a bare numpy broadcast error before
+        raise ShapeError(f"endo_turning_slip: v_left_m_s, v_right_m_s and yaw_rate_rad_s must "
+                         f"share a shape (n,), got {vl.shape}, {vr.shape}, {w.shape}") from None
     ok = (np.abs(w) >= min_turn_rad_s) & (np.abs(vl) > 1e-3) & (np.abs(vr) > 1e-3)
     rho = endo_slip_ratio_ratio(np.where(ok, vl, 1.0), np.where(ok, vr, 1.0), n)
     den = vr - rho * vl

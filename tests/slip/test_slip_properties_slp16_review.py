@@ -614,3 +614,12 @@ def test_measured_checks_refuse_arrays_not_one_row_per_window(name, pred, run_id
     from terrain.slip.evaluation import measured_checks
     with pytest.raises(ShapeError, match=f"measured_checks: {name} must have shape"):
         measured_checks(_measured_X(6), pred, np.array(run_ids), np.array(terrains), 0.55)
+
+
+@pytest.mark.parametrize("shapes", [(5, 4, 5), (5, 5, 3)])
+def test_endo_turning_slip_refuses_series_of_other_lengths(shapes):
+    # a bare numpy 'operands could not be broadcast together' before
+    vl, vr, w = (np.ones(k) for k in shapes)
+    with pytest.raises(ShapeError, match="endo_turning_slip: v_left_m_s, v_right_m_s and "
+                                         "yaw_rate_rad_s must share a shape"):
+        endo_turning_slip(vl, vr, w, 0.5)
