@@ -623,3 +623,97 @@ def test_endo_turning_slip_refuses_series_of_other_lengths(shapes):
     with pytest.raises(ShapeError, match="endo_turning_slip: v_left_m_s, v_right_m_s and "
                                          "yaw_rate_rad_s must share a shape"):
         endo_turning_slip(vl, vr, w, 0.5)
+
+
+# --- pseudo-measurement fusion ------------------------------------------------------------
+
+std_f = st.floats(1e-4, 0.5)
+slip_f = st.floats(-1.0, 1.0)
+
+
+@FAST
+@given(rows=st.lists(st.tuples(slip_f, std_f, slip_f, std_f), min_size=1, max_size=20),
+       rho=st.one_of(st.none(), st.floats(-1.0, 1.0)), floor=st.floats(1e-6, 0.01))
+def test_fused_pseudo_measurement_is_the_inverse_variance_mean_of_its_two_models(
+        rows, rho, floor):
+    from terrain.slip.estimate import FusionSettings, pseudo_measurement
+    a = np.array(rows)
+    t = np.arange(len(a), dtype=float)
+    sp, vp, sl, vl = (np.repeat(a[:, [k]], 2, axis=1) for k in range(4))
+    outputs = {"physics": (t, sp, vp), "learned": (t, sl, vl)}
+    fs = FusionSettings(min_std=floor, error_correlation=rho)
+    tt, mean, std = pseudo_measurement(outputs, "fused", fs)
+    np.testing.assert_array_equal(tt, t)
+    vp, vl = np.maximum(vp, floor), np.maximum(vl, floor)
+    wp, wl = vp ** -2, vl ** -2
+    np.testing.assert_allclose(mean, (wp * sp + wl * sl) / (wp + wl), rtol=1e-12, atol=1e-15)
+    assert np.all((mean >= np.minimum(sp, sl) - 1e-12) & (mean <= np.maximum(sp, sl) + 1e-12))
+    if rho is None:
+        np.testing.assert_array_equal(std, np.minimum(vp, vl))
+    else:
+        ap, al = wp / (wp + wl), wl / (wp + wl)
+        ref = np.sqrt(ap ** 2 * vp ** 2 + al ** 2 * vl ** 2 + 2 * rho * ap * al * vp * vl)
+        np.testing.assert_allclose(std, np.maximum(ref, floor), rtol=1e-9)
+        if rho == 0.0:
+            np.testing.assert_allclose(std, np.maximum((wp + wl) ** -0.5, floor), rtol=1e-9)
+    # the two models enter alike: swapped, the same measurement
+    swapped = pseudo_measurement({"physics": (t, sl, vl), "learned": (t, sp, vp)}, "fused", fs)
+    np.testing.assert_allclose(swapped[1], mean, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(swapped[2], std, rtol=1e-12)
+    # window by window: the first k windows alone give their part
+    k = max(1, len(a) // 2)
+    part = pseudo_measurement({n: tuple(x[:k] for x in v) for n, v in outputs.items()},
+                              "fused", fs)
+    np.testing.assert_array_equal(part[1], mean[:k])
+    np.testing.assert_array_equal(part[2], std[:k])
+
+
+@FAST
+@given(v=st.floats(-2.0, 2.0).filter(lambda x: abs(x) > 1e-3), s=st.floats(-0.9, 0.99),
+       n=st.integers(2, 50))
+def test_slip_compensated_straight_line_is_the_ground_speed_of_the_sae_slip(v, s, n):
+    # both sides at rim speed v with slip s (SAE, signed by travel): the body moves at the
+    # ground speed that gives that slip (seed 001 eq. 7.1 traction, 7.2 braking)
+    t = np.arange(n) * 0.1
+    slip = np.full(n, s * np.sign(v))
+    pose = dead_reckon(t, np.full(n, v), np.full(n, v), 0.55, slip, slip)
+    ground = v * (1 - s) if s >= 0 else v / (1 + s)
+    np.testing.assert_allclose(pose[:, 0], ground * t, rtol=1e-9, atol=1e-12)
+    assert float(sae_slip(v, ground, dead_band_m_s=0.0)) == pytest.approx(s * np.sign(v))
+
+
+def test_endo_turning_slip_is_defined_at_a_small_denominator():
+    # v_r - rho v_l = 0.0098 m/s: above the guard against a division by ~0 (1e-6), so the
+    # slips are defined (and close the measured yaw rate); a guard at 1e-2 made them NaN
+    vl, vr = 0.004, 0.005
+    rho = -(vr / vl) ** 0.847
+    den = vr - rho * vl
+    track, w = 0.059, (0.001 + 0.5 * den) / 0.059
+    al, ar = endo_turning_slip(np.array([vl]), np.array([vr]), np.array([w]), track)[0]
+    assert ar == pytest.approx(-0.5, abs=1e-9) and al == pytest.approx(rho * ar, abs=1e-9)
+    assert track * w == pytest.approx(vr * (1 - ar) - vl * (1 - al), abs=1e-12)
+
+
+def test_std_calibration_coverage_counts_an_error_of_exactly_k_std_as_covered():
+    # |error| / std = 1.0 and 2.0 exactly: within 1 and 2 std ("<= k std", documented)
+    meta = pd.DataFrame({"scenario": ["x"], "run_id": ["r"]})
+    tab = std_calibration_table(np.array([[0.1, 0.2]]), np.array([[0.1, 0.1]]),
+                                np.zeros((1, 2)), meta, np.ones(1, bool))
+    assert tab["coverage_1std"].iloc[0] == 0.5
+    assert tab["coverage_2std"].iloc[0] == 1.0
+
+
+@FAST
+@given(vals=st.lists(st.floats(-5, 5), min_size=3, max_size=30), dup=st.integers(1, 28))
+def test_resample_is_np_interp_per_column_and_takes_a_repeated_time(vals, dup):
+    # documented: only a time before the previous one (or not finite) is refused
+    from terrain.slip.estimate import resample
+    v = np.array(vals)
+    t = np.arange(v.size, dtype=float)
+    k = min(dup, v.size - 1)
+    t[k] = t[k - 1]                      # a repeated time is not "before the previous one"
+    grid = np.linspace(-1.0, v.size, 37)
+    out = resample(grid, t, np.column_stack([v, -v]))
+    ref = np.interp(grid, t, v, left=np.nan, right=np.nan)
+    np.testing.assert_array_equal(out[:, 0], ref)
+    np.testing.assert_array_equal(out[:, 1], -ref)
