@@ -717,3 +717,15 @@ def test_resample_is_np_interp_per_column_and_takes_a_repeated_time(vals, dup):
     ref = np.interp(grid, t, v, left=np.nan, right=np.nan)
     np.testing.assert_array_equal(out[:, 0], ref)
     np.testing.assert_array_equal(out[:, 1], -ref)
+
+
+@FAST
+@given(v=st.floats(0.2, 2.0), r=st.floats(-1.0, 1.0), track=st.floats(0.3, 1.5),
+       rim=st.floats(0.1, 2.0))
+def test_skid_steer_side_slip_moves_the_body_speed_to_the_side_contact_lines(v, r, track, rim):
+    # left contact line at y = +B/2: v_long = v - r B / 2 (eq. 7.3), right at -B/2; a left
+    # turn (r > 0) slows the left side (a swapped or full-track offset mirrors or doubles it)
+    s = skid_steer_side_slip(np.full((1, 2), rim), np.array([v]), np.array([r]), track)[0]
+    v_left, v_right = v - 0.5 * r * track, v + 0.5 * r * track
+    assert s[0] == pytest.approx(_sae_reference(rim, v_left), abs=1e-12)
+    assert s[1] == pytest.approx(_sae_reference(rim, v_right), abs=1e-12)
