@@ -222,6 +222,31 @@ def holds_booleans(x) -> bool:
     return isinstance(x, bool)
 
 
+def refuse_booleans(error: type[TerrainError], owner: str | None = None, **values) -> None:
+    """Raise ``error`` naming the first of ``values`` that holds booleans where numbers are
+    meant (:func:`holds_booleans`): the shared refusal of the slip, odometry, lag,
+    consistency, observer and simulator inputs, each with its own typed error.
+
+    Parameters
+    ----------
+    error : type
+        The :class:`TerrainError` subclass to raise (its first argument is the message).
+    owner : str or None
+        The function or object refusing, put before the name in the message.
+    **values
+        Argument name -> value, checked in order.
+
+    Raises
+    ------
+    TerrainError
+        ``error``: "[<owner>: ]<name> must hold numbers, got booleans".
+    """
+    for name, value in values.items():
+        if holds_booleans(value):
+            where = f"{owner}: " if owner else ""
+            raise error(f"{where}{name} must hold numbers, got booleans")
+
+
 class ConfigError(TerrainError, ValueError):
     """An unknown name or an out-of-range parameter in a configuration.
 

@@ -93,6 +93,16 @@ def test_holds_booleans_is_the_one_test_of_a_boolean_where_numbers_are_meant():
         assert not holds_booleans(x), x
 
 
+def test_refuse_booleans_names_the_first_boolean_argument_with_the_error_asked_for():
+    from terrain.errors import EstimationError, ShapeError, refuse_booleans
+
+    refuse_booleans(ShapeError, "f", a=np.ones(3), b=[1, 0], c=None)    # numbers pass
+    with pytest.raises(ShapeError, match=r"^f: b must hold numbers, got booleans$"):
+        refuse_booleans(ShapeError, "f", a=np.ones(3), b=np.ones(2, bool), c=True)
+    with pytest.raises(EstimationError, match=r"^c must hold numbers, got booleans$"):
+        refuse_booleans(EstimationError, a=1.0, c=True)
+
+
 def test_holds_booleans_sees_pandas_nullable_boolean_masks():
     """A pandas ``boolean`` (nullable) mask is a boolean dtype too: ``np.asarray(mask,
     float)`` reads it as 1 and 0, as a NumPy mask."""

@@ -18,16 +18,8 @@ import numpy as np
 from scipy import stats
 
 from terrain.errors import (ConfigError, CovarianceError, EstimationError, ShapeError,
-                            config_numbers, config_positive, first_items, holds_booleans)
+                            config_numbers, config_positive, first_items, refuse_booleans)
 from terrain.estimation.model import wrap_angle
-
-
-def _refuse_booleans(owner: str, **arrays) -> None:
-    """Refuse an array of booleans where numbers are meant (a mask passed by mistake was
-    read as errors, statistics or degrees of freedom of 0 and 1)."""
-    for name, a in arrays.items():
-        if holds_booleans(a):
-            raise EstimationError(f"{owner}: {name} must hold numbers, got booleans")
 
 
 def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
@@ -54,7 +46,7 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     EstimationError
         Booleans given for the errors or the covariances.
     """
-    _refuse_booleans("nees", errors=errors, covariances=covariances)
+    refuse_booleans(EstimationError, "nees", errors=errors, covariances=covariances)
     e = np.asarray(errors, dtype=float)
     P = np.asarray(covariances, dtype=float)
     if e.ndim != 2 or P.shape != (e.shape[0], e.shape[1], e.shape[1]):
@@ -94,7 +86,7 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
     EstimationError
         Booleans given for the estimates or the truth.
     """
-    _refuse_booleans("state_errors", estimates=estimates, truth=truth)
+    refuse_booleans(EstimationError, "state_errors", estimates=estimates, truth=truth)
     x = np.asarray(estimates, dtype=float)
     t = np.asarray(truth, dtype=float)
     if x.ndim != 2 or t.shape != x.shape:
@@ -362,7 +354,7 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
         Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1).
     """
     _check_probability(probability)
-    _refuse_booleans("chi2_test", values=values, dof=dof)
+    refuse_booleans(EstimationError, "chi2_test", values=values, dof=dof)
     v = np.asarray(values, dtype=float)
     dof = np.asarray(dof, dtype=float)
     if v.ndim != 1 or dof.shape not in ((), v.shape):

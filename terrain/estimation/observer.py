@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from terrain.errors import (ConfigError, ShapeError, TimeStepError, config_flags,
-                            config_numbers, config_positive, holds_booleans, indexed)
+                            config_numbers, config_positive, refuse_booleans, indexed)
 from terrain.run import times_out_of_order
 from terrain.vehicles.common import wrap_angle
 from terrain.vehicles.skid_steer import HUSKY, body_rates, side_speeds
@@ -191,10 +191,9 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
     TimeStepError
         Times not finite and strictly increasing (the first such sample named).
     """
-    for name, value in (("t_s", t_s), ("pose", pose), ("v_right_m_s", v_right_m_s),
-                        ("v_left_m_s", v_left_m_s)):
-        if holds_booleans(value):      # (a mask was read as a pose or speeds of 0 and 1)
-            raise ShapeError(f"adaptive observer: {name} must hold numbers, got booleans")
+    # (a mask was read as a pose or speeds of 0 and 1)
+    refuse_booleans(ShapeError, "adaptive observer", t_s=t_s, pose=pose,
+                    v_right_m_s=v_right_m_s, v_left_m_s=v_left_m_s)
     t = np.asarray(t_s, dtype=float)
     p = np.asarray(pose, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)

@@ -32,7 +32,7 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, TimeStepError,
-                            config_numbers, holds_booleans)
+                            config_numbers, refuse_booleans)
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
                                 check_physics, contact_forces,
@@ -336,19 +336,6 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 GRID_STEP_TOLERANCE = 1e-3
 
 
-def _refuse_booleans(name: str, values) -> None:
-    """Refuse a boolean array where numbers are meant (``float(True)`` is 1: a run of 1 m/s
-    or 1 rad commands, or a 1 rad steering error, from a mask passed by mistake).
-
-    Raises
-    ------
-    ConfigError
-        ``values`` is a boolean array (or a list of booleans), named.
-    """
-    if holds_booleans(values):
-        raise ConfigError(f"{name} must hold numbers, got booleans")
-
-
 def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarray:
     """Refuse a time grid that is not finite, increasing and uniform, or a command without
     one finite ``(v_x, v_y, yaw_rate)`` per step; return the command as a float array.
@@ -367,8 +354,8 @@ def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarr
         :data:`GRID_STEP_TOLERANCE` of it (the integrator reads the step from the first two
         times only).
     """
-    _refuse_booleans("integrate: t_s", t_s)
-    _refuse_booleans("integrate: twist_cmd", twist_cmd)
+    refuse_booleans(ConfigError, "integrate", t_s=t_s)
+    refuse_booleans(ConfigError, "integrate", twist_cmd=twist_cmd)
     t = np.asarray(t_s, dtype=float)
     if t.ndim != 1:
         # (a number or None was a bare TypeError of len() before this check was reached)
@@ -416,7 +403,7 @@ def _checked_steer_offset(steer_offset_rad, geometry: ContactGeometry) -> np.nda
     if not geometry.steered:
         raise ConfigError("integrate.steer_offset_rad is a swerve-drive steering error; this "
                           "vehicle does not steer, so it would change nothing: leave it None")
-    _refuse_booleans("integrate.steer_offset_rad", steer_offset_rad)
+    refuse_booleans(ConfigError, **{"integrate.steer_offset_rad": steer_offset_rad})
     offset = np.asarray(steer_offset_rad, dtype=float)
     if offset.shape != (geometry.n_motors,):
         raise ShapeError(f"integrate.steer_offset_rad must hold one angle per motor, shape "
@@ -676,7 +663,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                      nxt.copy(), torque_out[k].copy(), float(pitch_k),
                                      float(roll_k), ti))
             if new is not None:
-                _refuse_booleans(f"the closed-loop hook's correction at step {k}", new)
+                refuse_booleans(ConfigError,
+                                **{f"the closed-loop hook's correction at step {k}": new})
                 new = np.asarray(new, dtype=float)
                 if new.size != nm:
                     raise ShapeError(f"the closed-loop hook returned {new.size} values for "

@@ -30,7 +30,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from terrain.errors import (ConfigError, EstimationError, ShapeError, TimeStepError,
-                            config_numbers, config_positive, holds_booleans)
+                            config_numbers, config_positive, refuse_booleans)
 
 
 @dataclass(frozen=True)
@@ -268,9 +268,8 @@ def _finite(t: np.ndarray, v: np.ndarray, name: str, v_name: str
     are finite; their times must increase strictly (``np.interp`` reads unsorted or
     duplicated times silently wrong: a planted 0.37 s lag came out -0.75 s at correlation
     0.96)."""
-    for what, x in ((name, t), (v_name, v)):
-        if holds_booleans(x):   # a thresholded speed was correlated as 0/1 steps
-            raise EstimationError(f"{what} must hold numbers, got booleans")
+    # (a thresholded speed was correlated as 0/1 steps)
+    refuse_booleans(EstimationError, **{name: t, v_name: v})
     t = np.asarray(t, dtype=float)
     v = np.asarray(v, dtype=float)
     if t.shape != v.shape or t.ndim != 1:

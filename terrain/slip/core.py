@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from terrain.errors import EstimationError, ShapeError, config_positive, holds_booleans
+from terrain.errors import EstimationError, ShapeError, config_positive, refuse_booleans
 from terrain.terramechanics.slip import THESIS_DEAD_BAND_M_S, sae_slip
 from terrain.vehicles.swerve import wheel_rim_speed
 
@@ -51,8 +51,8 @@ def wheel_longitudinal_velocity(v_bx_m_s: np.ndarray, v_by_m_s: np.ndarray,
     EstimationError
         An argument that holds booleans (named).
     """
-    _refuse_booleans(v_bx_m_s=v_bx_m_s, v_by_m_s=v_by_m_s, yaw_rate_rad_s=yaw_rate_rad_s,
-                     positions_m=positions_m, delta_rad=delta_rad)
+    refuse_booleans(EstimationError, v_bx_m_s=v_bx_m_s, v_by_m_s=v_by_m_s,
+                    yaw_rate_rad_s=yaw_rate_rad_s, positions_m=positions_m, delta_rad=delta_rad)
     vx = np.asarray(v_bx_m_s, dtype=float)
     vy = np.asarray(v_by_m_s, dtype=float)
     r = np.asarray(yaw_rate_rad_s, dtype=float)
@@ -107,7 +107,7 @@ def wheel_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray, v_by_m_s: np.nda
         An argument that holds booleans (named): a mask given for a rim speed was a slip
         against 1 m/s.
     """
-    _refuse_booleans(rim_speed_m_s=rim_speed_m_s)
+    refuse_booleans(EstimationError, rim_speed_m_s=rim_speed_m_s)
     v_long = wheel_longitudinal_velocity(v_bx_m_s, v_by_m_s, yaw_rate_rad_s, positions_m,
                                          delta_rad)
     rim = np.asarray(rim_speed_m_s, dtype=float)
@@ -155,17 +155,9 @@ def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
         An argument that holds booleans (named).
     """
     config_positive("skid_steer_side_slip", track_m=track_m)
-    _refuse_booleans(rim_speed_m_s=rim_speed_m_s, v_bx_m_s=v_bx_m_s,
-                     yaw_rate_rad_s=yaw_rate_rad_s)
+    refuse_booleans(EstimationError, rim_speed_m_s=rim_speed_m_s, v_bx_m_s=v_bx_m_s,
+                    yaw_rate_rad_s=yaw_rate_rad_s)
     v = np.asarray(v_bx_m_s, dtype=float)
     half = 0.5 * float(track_m)
     return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,
                       np.array([[0.0, half], [0.0, -half]]), dead_band_m_s=dead_band_m_s)
-
-
-def _refuse_booleans(**values) -> None:
-    """Refuse, by name, an argument of numbers that holds booleans (``np.asarray(mask,
-    float)`` silently gave speeds of 0 and 1 m/s)."""
-    for name, value in values.items():
-        if holds_booleans(value):
-            raise EstimationError(f"{name} must hold numbers, got booleans")

@@ -30,7 +30,7 @@ import numpy as np
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, NonFiniteInputError,
                             ShapeError, TimeStepError, config_positive, first_items,
-                            holds_booleans)
+                            refuse_booleans)
 from terrain.run import times_out_of_order
 from terrain.terramechanics.slip import ground_speed_from_slip
 
@@ -92,11 +92,10 @@ def dead_reckon(t_s: np.ndarray, v_left_m_s: np.ndarray, v_right_m_s: np.ndarray
         booleans and inf refused too) or a ``chi`` sample not > 0, where the yaw rate comes
         from the wheels.
     """
-    for name, value in (("t_s", t_s), ("v_left_m_s", v_left_m_s), ("v_right_m_s", v_right_m_s),
-                        ("slip_left", slip_left), ("slip_right", slip_right), ("chi", chi),
-                        ("lateral_m_s", lateral_m_s), ("yaw_rate_rad_s", yaw_rate_rad_s)):
-        if holds_booleans(value):   # a mask given for a speed was integrated as 1 m/s
-            raise EstimationError(f"dead_reckon: {name} must hold numbers, got booleans")
+    # (a mask given for a speed was integrated as 1 m/s)
+    refuse_booleans(EstimationError, "dead_reckon", t_s=t_s, v_left_m_s=v_left_m_s,
+                    v_right_m_s=v_right_m_s, slip_left=slip_left, slip_right=slip_right,
+                    chi=chi, lateral_m_s=lateral_m_s, yaw_rate_rad_s=yaw_rate_rad_s)
     t = np.asarray(t_s, dtype=float)
     vl = np.asarray(v_left_m_s, dtype=float)
     vr = np.asarray(v_right_m_s, dtype=float)
