@@ -158,6 +158,23 @@ def skid_steer_side_slip(rim_speed_m_s: np.ndarray, v_bx_m_s: np.ndarray,
     refuse_booleans(EstimationError, rim_speed_m_s=rim_speed_m_s, v_bx_m_s=v_bx_m_s,
                     yaw_rate_rad_s=yaw_rate_rad_s)
     v = np.asarray(v_bx_m_s, dtype=float)
-    half = 0.5 * float(track_m)
     return wheel_slip(rim_speed_m_s, v, np.zeros(v.shape), yaw_rate_rad_s,
-                      np.array([[0.0, half], [0.0, -half]]), dead_band_m_s=dead_band_m_s)
+                      skid_steer_contact_lines_m(track_m), dead_band_m_s=dead_band_m_s)
+
+
+def skid_steer_contact_lines_m(track_m: float) -> np.ndarray:
+    """Positions of a skid-steer vehicle's two sides in the body frame, the geometric contact
+    lines ``(0, +B/2)`` (left) and ``(0, -B/2)`` (right) of :func:`skid_steer_side_slip`.
+
+    Parameters
+    ----------
+    track_m : float
+        Geometric track width B, m.
+
+    Returns
+    -------
+    ndarray, shape (2, 2)
+        ``d_i`` rows (x, y), m, as :func:`wheel_longitudinal_velocity` takes them.
+    """
+    half = 0.5 * float(track_m)
+    return np.array([[0.0, half], [0.0, -half]])

@@ -42,8 +42,8 @@ from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run, times_out_of_order
 from terrain.slip.alignment import LagEstimate, gated_lag, lag_not_estimated
-from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_side_slip,
-                               wheel_longitudinal_velocity)
+from terrain.slip.core import (DEAD_BAND_M_S, sae_slip, skid_steer_contact_lines_m,
+                               skid_steer_side_slip, wheel_longitudinal_velocity)
 from terrain.terramechanics.slip import in_dead_band
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
@@ -520,14 +520,14 @@ def estimate_agrimaro_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise"
     in_band = in_dead_band(rim, v_long, DEAD_BAND_M_S)
     std = np.where(in_band, np.nan, np.sqrt(var))
     notes = (agrimaro_missing_stream_notes(run) + lag_notes(run, lag_est)
-             + dead_band_notes(in_band) + clip_notes(base))
+             + dead_band_notes(in_band, run.run_id) + clip_notes(base, run.run_id))
     return RunEstimate(run.run_id, "agrimaro", ekf, slip, ("slip_1", "slip_2", "slip_3"),
                        lag_est, {"tuning": settings.name, "lag_mode": lag,
                                  "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
                        std, notes)
 
 
-def clip_notes(unclipped_slip: np.ndarray) -> tuple[str, ...]:
+def clip_notes(unclipped_slip: np.ndarray, run_id: str) -> tuple[str, ...]:
     """A note counting the slip samples saturated to +-1 (seed 001 ch. 7.2.1's clip).
 
     Where the rim speed and the wheel's velocity have opposite signs (a wheel turning
@@ -538,22 +538,24 @@ def clip_notes(unclipped_slip: np.ndarray) -> tuple[str, ...]:
     ----------
     unclipped_slip : ndarray, shape (N, k)
         SAE ratio before the clip (:func:`sae_slip` with saturation 2), dimensionless.
+    run_id : str
+        The run, named in the note.
 
     Returns
     -------
     tuple of str
-        One note, or none when no sample is beyond +-1.
+        One ``note: run <id>: ...``, or none when no sample is beyond +-1.
     """
     beyond = np.abs(np.asarray(unclipped_slip, dtype=float)) > 1.0
     n = int(np.count_nonzero(beyond))
     if n == 0:
         return ()
-    return (f"{n} of {beyond.size} wheel slip samples beyond +-1 (rim speed against the "
-            f"wheel's motion, e.g. at a spin's reversal) saturated to +-1 (ch. 7.2.1); "
-            f"std_slip from the unclipped ratio",)
+    return (f"note: run {run_id}: {n} of {beyond.size} wheel slip samples beyond +-1 (rim "
+            f"speed against the wheel's motion, e.g. at a spin's reversal) saturated to +-1 "
+            f"(ch. 7.2.1); std_slip from the unclipped ratio",)
 
 
-def dead_band_notes(in_band: np.ndarray) -> tuple[str, ...]:
+def dead_band_notes(in_band: np.ndarray, run_id: str, std: bool = True) -> tuple[str, ...]:
     """A note counting the slip samples set to 0 by the dead band (seed 001 ch. 7.2.1).
 
     Parameters
@@ -561,17 +563,23 @@ def dead_band_notes(in_band: np.ndarray) -> tuple[str, ...]:
     in_band : ndarray of bool, shape (N, k)
         Where both the rim speed and the wheel's longitudinal velocity are below
         :data:`~terrain.slip.DEAD_BAND_M_S`.
+    run_id : str
+        The run, named in the note.
+    std : bool
+        The estimate has a ``std_slip`` (NaN in the dead band, said in the note).
 
     Returns
     -------
     tuple of str
-        One note, or none when no sample is in the dead band.
+        One ``note: run <id>: ...``, or none when no sample is in the dead band.
     """
     n = int(np.count_nonzero(in_band))
     if n == 0:
         return ()
-    return (f"{n} of {in_band.size} wheel slip samples in the {DEAD_BAND_M_S} m/s dead band "
-            f"(both speeds below it, ch. 7.2.1): slip 0 by convention, std_slip NaN",)
+    return (f"note: run {run_id}: {n} of {in_band.size} wheel slip samples in the "
+            f"{DEAD_BAND_M_S} m/s dead band (both speeds below it, ch. 7.2.1): slip 0 by "
+            f"convention"
+            + (", std_slip NaN" if std else ""),)
 
 
 def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None = None,
@@ -619,11 +627,17 @@ def estimate_skid_steer_run(run: Run, *, lag: str = "xcorr", gate: Gate | None =
                               store_covariance=store_covariance)
     rim = resample(ekf.t_s, w[TIME].to_numpy(float) - offsets.get("wheels", 0.0),
                    w[["vel_l", "vel_r"]].to_numpy(float))
-    slip = skid_steer_side_slip(rim, ekf.state("v_bx"), ekf.state("yaw_rate"), settings.track_m)
+    v_bx, yaw_rate = ekf.state("v_bx"), ekf.state("yaw_rate")
+    slip = skid_steer_side_slip(rim, v_bx, yaw_rate, settings.track_m)
+    # in the dead band the slip is 0 by convention (ch. 7.2.1): counted, as for the AgriMaRo
+    v_long = wheel_longitudinal_velocity(v_bx, np.zeros_like(v_bx), yaw_rate,
+                                         skid_steer_contact_lines_m(settings.track_m))
+    in_band = in_dead_band(rim, v_long, DEAD_BAND_M_S)
     return RunEstimate(run.run_id, params.name, ekf, slip, ("slip_1", "slip_2"), lag_est,
                        {"tuning": "skid-steer default", "lag_mode": lag,
                         "time_offsets_s": offsets, "dead_band_m_s": DEAD_BAND_M_S},
-                       notes=lag_notes(run, lag_est))
+                       notes=lag_notes(run, lag_est) + dead_band_notes(in_band, run.run_id,
+                                                                       std=False))
 
 
 def estimate_run(run: Run, *, lag: str = "xcorr", tuning: str = "noise",

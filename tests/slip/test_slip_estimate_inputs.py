@@ -54,9 +54,9 @@ def test_slip_augmented_estimate_leaves_a_lag_without_a_clear_peak_unapplied(bor
 def test_clip_note_counts_only_ratios_beyond_one():
     from terrain.slip.estimate import clip_notes
     # a locked wheel under a moving robot is -1 exactly (eq. 7.2), not saturated
-    assert clip_notes(np.array([[1.0, -1.0], [0.5, -0.2]])) == ()
-    note, = clip_notes(np.array([[1.5, -1.0], [-2.0, 1.0], [0.3, 0.0]]))
-    assert note.startswith("2 of 6 wheel slip samples beyond +-1")
+    assert clip_notes(np.array([[1.0, -1.0], [0.5, -0.2]]), "r") == ()
+    note, = clip_notes(np.array([[1.5, -1.0], [-2.0, 1.0], [0.3, 0.0]]), "a/B/0")
+    assert note.startswith("note: run a/B/0: 2 of 6 wheel slip samples beyond +-1")
 
 
 def test_camera_ema_remedy_is_the_theses_alpha_with_raw_encoders():
@@ -129,3 +129,26 @@ def test_agrimaro_encoder_lag_compares_speeds_not_velocities_when_reversing():
     est = agrimaro_encoder_lag(run, t, np.column_stack([om, om, om]))
     assert est.applied and est.lag_s == pytest.approx(0.3, abs=0.005)
     assert est.correlation > 0.99
+
+
+def test_skid_steer_estimate_counts_its_dead_band_samples(borealtc_runs):
+    # the AgriMaRo estimate counted the slips set to 0 by the dead band; the skid-steer one
+    # set them without a word (ASPHALT/02 stands still at its start and end)
+    from terrain.slip import DEAD_BAND_M_S
+    from terrain.slip.estimate import estimate_skid_steer_run, resample
+    from terrain.vehicles import get_vehicle
+
+    run = next(r for r in borealtc_runs if r.run_id == "borealtc/ASPHALT/02")
+    est = estimate_skid_steer_run(run, lag="none")
+    v, r = est.ekf.state("v_bx"), est.ekf.state("yaw_rate")
+    half = 0.5 * get_vehicle("husky").track_m
+    v_side = np.column_stack([v - r * half, v + r * half])    # seed 001 eq. 7.3 at y = +-B/2
+    w = run.streams["wheels"]
+    rim = resample(est.ekf.t_s, w["t_s"].to_numpy(float), w[["vel_l", "vel_r"]].to_numpy(float))
+    in_band = (np.abs(rim) < DEAD_BAND_M_S) & (np.abs(v_side) < DEAD_BAND_M_S)
+    assert in_band.sum() > 50
+    note, = [n for n in est.notes if "dead band" in n]
+    assert note.startswith(f"note: run borealtc/ASPHALT/02: {int(in_band.sum())} of "
+                           f"{in_band.size} wheel slip samples in the {DEAD_BAND_M_S} m/s")
+    assert "std_slip" not in note           # the skid-steer estimate has no std
+    assert (est.slip[in_band] == 0).all()
