@@ -226,8 +226,14 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             idx = np.flatnonzero(bad)
             shown = text.iloc[idx[0]]
             shown = shown if len(shown) <= 40 else shown[:37] + "..."
+            first = [str(c).strip() for c in rows[int(idx[0])]]
+            hint = (f"; line {int(lines[idx[0]])} repeats the header (two logs joined into "
+                    "one file?): cut the file there or delete that line"
+                    if first == header else
+                    "; a decimal comma? numbers take a decimal point (0.25, not 0,25)"
+                    if re.fullmatch(r"[-+]?\d*,\d+(?:[eE][-+]?\d+)?", shown) else "")
             raise NonNumericError(f"{idx.size} non-numeric value(s), first {shown!r} at "
-                                  f"{first_items(lines[idx])}", path, col, int(idx[0]),
+                                  f"{first_items(lines[idx])}{hint}", path, col, int(idx[0]),
                                   int(lines[idx[0]]))
         out[name] = values
     _refuse_overflow(out, mapping, header, rows, lines, path)

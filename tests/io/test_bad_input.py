@@ -816,3 +816,39 @@ def test_a_runs_path_that_is_a_symbolic_link_loop_is_a_data_format_error(tmp_pat
     with pytest.raises(DataFormatError) as info:
         read_runs_path(loop)
     assert info.value.path == str(loop) and "not a folder of runs" in str(info.value)
+
+
+def test_a_header_repeated_inside_the_file_is_named_as_such(turning):
+    # two logs joined into one file: the second header was a "non-numeric value 'time'" at
+    # its line, without a word about why
+    imu, _ = turning
+    lines = _lines(imu)
+    lines.insert(40, lines[0])
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(NonNumericError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.line == 41
+    assert "line 41 repeats the header (two logs joined into one file?)" in str(info.value)
+    # a word in a data row is no repeated header: no such hint
+    lines = _lines(imu)
+    del lines[40]
+    lines[40] = lines[40].replace(",", ",oops", 1)
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(NonNumericError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert "repeats the header" not in str(info.value)
+
+
+def test_a_quoted_decimal_comma_is_named_as_such(turning):
+    # a spreadsheet in a comma-decimal locale writes "0,25" quoted: it was only a
+    # "non-numeric value '0,25'"
+    imu, _ = turning
+    lines = _lines(imu)
+    fields = lines[10].split(",")
+    fields[1] = '"' + fields[1].replace(".", ",") + '"'
+    lines[10] = ",".join(fields)
+    imu.write_text("\n".join(lines) + "\n")
+    with pytest.raises(NonNumericError) as info:
+        read_runs_dir(imu.parent.parent)
+    assert info.value.line == 11 and info.value.column == "wx"
+    assert "a decimal comma?" in str(info.value)
