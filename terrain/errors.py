@@ -367,6 +367,27 @@ def config_seed(name: str, value) -> None:
         raise ConfigError(f"{name} must be an integer >= 0, got {value!r}")
 
 
+def is_integer(value) -> bool:
+    """Whether ``value`` is an integer, Python's or NumPy's, as a count or an index is given:
+    not a boolean (``True`` is Python's 1, and was column 1), not a float (``2.0``, ``0.5``)
+    and not a NumPy duration (``np.timedelta64`` is a ``np.signedinteger``).
+
+    Parameters
+    ----------
+    value : object
+        The value given.
+
+    Returns
+    -------
+    bool
+        True for an integer.
+    """
+    import numbers
+
+    # (NumPy's bool is not Integral)
+    return isinstance(value, numbers.Integral) and not isinstance(value, _NOT_NUMBERS)
+
+
 def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
     """Refuse a configuration value that is not an integer in ``[lo, hi]``.
 
@@ -390,10 +411,7 @@ def config_integer(name: str, value, lo: int, hi: int | None = None) -> None:
         ``value`` a boolean or a NumPy duration, not an integer (Python or NumPy), or
         outside ``[lo, hi]``.
     """
-    import numbers
-
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, _NOT_NUMBERS) \
-        and lo <= value and (hi is None or value <= hi)   # (NumPy's bool is not Integral)
+    ok = is_integer(value) and lo <= value and (hi is None or value <= hi)
     if not ok:
         bound = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
         raise ConfigError(f"{name} must be an integer {bound}, got {value!r}")

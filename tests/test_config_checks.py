@@ -93,6 +93,14 @@ def test_holds_booleans_is_the_one_test_of_a_boolean_where_numbers_are_meant():
         assert not holds_booleans(x), x
 
 
+def test_is_integer_is_the_one_rule_of_a_count_or_an_index():
+    from terrain.errors import is_integer
+
+    assert all(is_integer(v) for v in (0, -3, np.int64(2), np.uint8(1)))
+    assert not any(is_integer(v) for v in (True, np.bool_(True), 2.0, 0.5, "1", None,
+                                           np.timedelta64(1, "s")))
+
+
 def test_refuse_booleans_names_the_first_boolean_argument_with_the_error_asked_for():
     from terrain.errors import EstimationError, ShapeError, refuse_booleans
 

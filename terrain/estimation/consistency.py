@@ -18,7 +18,8 @@ import numpy as np
 from scipy import stats
 
 from terrain.errors import (ConfigError, CovarianceError, EstimationError, ShapeError,
-                            config_numbers, config_positive, first_items, refuse_booleans)
+                            config_numbers, config_positive, first_items, is_integer,
+                            refuse_booleans)
 from terrain.estimation.model import wrap_angle
 
 
@@ -93,8 +94,7 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
         raise ShapeError(f"estimates and truth must both be (N, n), got estimates {x.shape} "
                          f"and truth {t.shape}")
     # (True was column 1 and 1.0 a bare IndexError: a column is an integer index)
-    wrong = [j for j in angle_columns if isinstance(j, (bool, np.bool_))
-             or not isinstance(j, (int, np.integer))]
+    wrong = [j for j in angle_columns if not is_integer(j)]
     if wrong:
         raise ShapeError(f"angle_columns must hold integer column indices, got {wrong[0]!r}")
     bad = [j for j in angle_columns if not -x.shape[1] <= j < x.shape[1]]

@@ -15,7 +15,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
-from terrain.errors import EstimationError
+from terrain.errors import EstimationError, is_integer
 
 
 def ema_filter(values: np.ndarray, alpha: float,
@@ -73,8 +73,8 @@ def ema_filter(values: np.ndarray, alpha: float,
     if v.ndim not in (1, 2):        # (a scalar was a bare IndexError, (k, d, e) taken as 1 column)
         raise EstimationError(f"EMA values must have shape (k,) or (k, d), got {v.shape}")
     n_columns = v.shape[1] if v.ndim == 2 else 1
-    if any(isinstance(c, (bool, np.bool_)) or not isinstance(c, (int, np.integer))
-           for c in angle_columns):     # (0.5 passed as column 0, then a bare IndexError)
+    # (0.5 passed as column 0, then a bare IndexError)
+    if not all(is_integer(c) for c in angle_columns):
         raise EstimationError(f"EMA angle columns must be integer column indices, got "
                               f"{list(angle_columns)}")
     if any(not 0 <= int(c) < n_columns for c in angle_columns):

@@ -19,7 +19,7 @@ from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
                               runs_track_m)
-from terrain.errors import ConfigError, config_integer, config_positive, duplicated
+from terrain.errors import ConfigError, config_integer, config_positive, duplicated, is_integer
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
                                cross_validate, fit_with_groups, grouped_units, training_units)
@@ -157,8 +157,7 @@ class ExperimentConfig:
                               f"({PAPER_WINDOW['window_s']:g} s every "
                               f"{PAPER_WINDOW['hop_s']:g} s): drop --window-s / --hop-s "
                               f"(got {self.window_s:g} s, hop {self.hop_s})")
-        bad_seeds = [s for s in self.seeds if isinstance(s, bool) or not isinstance(
-            s, (int, np.integer)) or not 0 <= s <= MAX_SEED]
+        bad_seeds = [s for s in self.seeds if not is_integer(s) or not 0 <= s <= MAX_SEED]
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "
                               f"seed range), got {list(self.seeds)}")
