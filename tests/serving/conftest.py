@@ -4,11 +4,13 @@ served (session scope)."""
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from features.windows import WindowConfig, make_windows
 from terrain.models.experiment import inference_pipeline
 from terrain.models.svm import SVMConfig
+from terrain.run import WHEEL_CHANNELS
 from terrain.serving import StreamModel
 
 
@@ -27,6 +29,21 @@ def train_runs(borealtc_runs):
     for terrain in sorted({r.terrain for r in borealtc_runs}):
         out += [r for r in borealtc_runs if r.terrain == terrain and r.has_imu][:2]
     return out
+
+
+@pytest.fixture(scope="session")
+def unseen_wheel_request(borealtc_runs, train_runs):
+    """``make(seconds)``: the first ``seconds`` of the wheel stream of the first run outside
+    ``train_runs``, as a request sends it (long format: ``stream, t_s`` and the wheel
+    channels, as logged)."""
+    seen = {r.run_id for r in train_runs}
+    wheels = next(r for r in borealtc_runs if r.run_id not in seen).streams["wheels"]
+
+    def make(seconds: float) -> pd.DataFrame:
+        w = wheels[wheels["t_s"] < wheels["t_s"].iloc[0] + seconds]
+        return w.assign(stream="wheels")[["stream", "t_s", *WHEEL_CHANNELS]].reset_index(
+            drop=True)
+    return make
 
 
 @pytest.fixture(scope="session")

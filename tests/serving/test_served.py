@@ -60,13 +60,9 @@ def served(model_dirs):
 
 
 @pytest.fixture(scope="module")
-def request_frame(borealtc_runs, train_runs):
+def request_frame(unseen_wheel_request):
     """12 s of the wheel stream of an unseen run, long format."""
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.run_id not in seen)
-    w = run.streams["wheels"]
-    w = w[w["t_s"] < w["t_s"].iloc[0] + 12.0]
-    return w.assign(stream="wheels")[COLUMNS].reset_index(drop=True)
+    return unseen_wheel_request(12.0)
 
 
 def _body(frame: pd.DataFrame) -> str:

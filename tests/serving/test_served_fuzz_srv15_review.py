@@ -42,13 +42,9 @@ def served(wheel_model, tmp_path_factory):
 
 
 @pytest.fixture(scope="module")
-def base(borealtc_runs, train_runs):
+def base(unseen_wheel_request):
     """4 s of the wheel stream of an unseen run, long format."""
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.run_id not in seen)
-    w = run.streams["wheels"]
-    w = w[w["t_s"] < w["t_s"].iloc[0] + 4.0]
-    return w.assign(stream="wheels")[COLUMNS].reset_index(drop=True)
+    return unseen_wheel_request(4.0)
 
 
 @pytest.fixture(scope="module")

@@ -27,9 +27,8 @@ WHEELS = ["vel_l", "vel_r", "cur_l", "cur_r"]
 
 
 @pytest.mark.parametrize("min_confidence", [0.2, 0.9])
-def test_the_served_targets_use_the_models_min_confidence(wheel_model, borealtc_runs,
-                                                          train_runs, tmp_path,
-                                                          min_confidence):
+def test_the_served_targets_use_the_models_min_confidence(wheel_model, unseen_wheel_request,
+                                                          tmp_path, min_confidence):
     import mlflow.pyfunc
     from mlflow.pyfunc import scoring_server
 
@@ -39,11 +38,7 @@ def test_the_served_targets_use_the_models_min_confidence(wheel_model, borealtc_
     save_served_model(tmp_path / "served", tmp_path / "train",
                       served_settings(m, min_confidence=min_confidence, max_rows=5000))
     served = mlflow.pyfunc.load_model(str(tmp_path / "served"))
-    seen = {r.run_id for r in train_runs}
-    run = next(r for r in borealtc_runs if r.run_id not in seen)
-    w = run.streams["wheels"]
-    frame = w[w["t_s"] < w["t_s"].iloc[0] + 12.0].assign(stream="wheels")[
-        ["stream", "t_s", *WHEELS]].reset_index(drop=True)
+    frame = unseen_wheel_request(12.0)
     split = json.loads(frame.to_json(orient="split", index=False))
     res = scoring_server.invocations(json.dumps({"dataframe_split": split}),
                                      "application/json", served, None)

@@ -111,24 +111,25 @@ def test_wheel_slip_of_a_run_is_the_slip_of_its_chunks(rows, cut):
 
 # --- lag estimation -----------------------------------------------------------------------
 
-def _smooth_signal(seed: int, n: int = 1200, rate: float = 100.0) -> tuple:
+def _lagged_pair(seed: int, lag_s: float, n: int = 1200, rate: float = 100.0) -> tuple:
+    """``t`` (s, 100 Hz, 12 s), a smooth random signal on it and the same signal ``lag_s``
+    late (read between its samples: any lag, whole samples or not)."""
     rng = np.random.default_rng(seed)
     t = np.arange(n + 400) / rate
     x = np.cumsum(rng.standard_normal(t.size))
     kern = np.hanning(15)
     x = np.convolve(x, kern / kern.sum(), mode="same")
-    return t, x
+    tg = t[200:-200]
+    return tg, np.interp(tg, t, x), np.interp(tg - lag_s, t, x)
 
 
 @SLOW
 @given(seed=st.integers(0, 10_000), lag_k=st.integers(-40, 40), shift=st.floats(-50.0, 1e4))
 def test_estimate_lag_recovers_a_planted_integer_lag_wherever_the_clock_starts(
         seed, lag_k, shift):
-    t, x = _smooth_signal(seed)
-    f = (lambda tt: np.interp(tt, t, x))
-    tg = t[200:-200]
     lag = lag_k / 100.0
-    est = estimate_lag(tg + shift, f(tg), tg + shift, f(tg - lag), max_lag_s=0.6)
+    tg, ref, sig = _lagged_pair(seed, lag)
+    est = estimate_lag(tg + shift, ref, tg + shift, sig, max_lag_s=0.6)
     assert est.lag_s == pytest.approx(lag, abs=0.011)
     assert est.correlation > 0.9
 
@@ -136,33 +137,26 @@ def test_estimate_lag_recovers_a_planted_integer_lag_wherever_the_clock_starts(
 @SLOW
 @given(seed=st.integers(0, 10_000), lag=st.floats(-0.35, 0.35))
 def test_estimate_lag_recovers_a_sub_sample_lag(seed, lag):
-    t, x = _smooth_signal(seed)
-    f = (lambda tt: np.interp(tt, t, x))
-    tg = t[200:-200]
-    est = estimate_lag(tg, f(tg), tg, f(tg - lag), max_lag_s=0.5)
+    tg, ref, sig = _lagged_pair(seed, lag)
+    est = estimate_lag(tg, ref, tg, sig, max_lag_s=0.5)
     assert est.lag_s == pytest.approx(lag, abs=0.006)
 
 
 @SLOW
 @given(seed=st.integers(0, 10_000), lag=st.floats(-0.3, 0.3))
 def test_gated_lag_applies_a_clear_planted_lag_as_estimated(seed, lag):
-    t, x = _smooth_signal(seed)
-    f = (lambda tt: np.interp(tt, t, x))
-    tg = t[200:-200]
-    est = gated_lag(tg, f(tg), tg, f(tg - lag), max_lag_s=0.5)
+    tg, ref, sig = _lagged_pair(seed, lag)
+    est = gated_lag(tg, ref, tg, sig, max_lag_s=0.5)
     assert est.applied and est.reason == ""
-    assert est == estimate_lag(tg, f(tg), tg, f(tg - lag), max_lag_s=0.5)
+    assert est == estimate_lag(tg, ref, tg, sig, max_lag_s=0.5)
 
 
 @SLOW
 @given(seed=st.integers(0, 10_000), lag_k=st.integers(-30, 30))
 def test_estimate_lag_is_antisymmetric_in_its_two_signals(seed, lag_k):
-    t, x = _smooth_signal(seed)
-    f = (lambda tt: np.interp(tt, t, x))
-    tg = t[200:-200]
-    lag = lag_k / 100.0
-    ab = estimate_lag(tg, f(tg), tg, f(tg - lag), max_lag_s=0.5)
-    ba = estimate_lag(tg, f(tg - lag), tg, f(tg), max_lag_s=0.5)
+    tg, ref, sig = _lagged_pair(seed, lag_k / 100.0)
+    ab = estimate_lag(tg, ref, tg, sig, max_lag_s=0.5)
+    ba = estimate_lag(tg, sig, tg, ref, max_lag_s=0.5)
     assert ab.lag_s == pytest.approx(-ba.lag_s, abs=1e-9)
     assert ab.correlation == pytest.approx(ba.correlation, abs=1e-9)
 
