@@ -397,8 +397,9 @@ class StreamService:
                 return None, np.inf, {"short"}
             # a gap is judged against the stream's usual step (the readers' rule), not the
             # few samples of one window, which a long gap would dominate; its step up to the
-            # window's last sample read (later arrivals would move it with the chunking)
-            steps.append(buf.median_step(through_s=t))
+            # window's last sample read (later arrivals would move it with the chunking),
+            # the smallest while few are known (holes would make the median)
+            steps.append(buf.usual_step(through_s=t))
             times.append(ts)
             values.append(vs)
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):

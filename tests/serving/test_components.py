@@ -515,3 +515,25 @@ def test_a_replay_swaps_the_live_stuck_flag_for_the_runs_on_each_decisions_own_w
     assert flags == ["stale|stuck:wheels.cur_l", "stale|stuck:imu.wz,wheels.cur_l",
                      "low_confidence|stuck:imu.wz", ""]
     assert n_stuck == 3
+
+
+def test_the_usual_step_is_the_smallest_while_few_steps_are_known():
+    """A stream's first steps 0.615, 1.077, 0.154, 0.154 s (two holes): the median,
+    0.385 s, is the holes'; the usual step is the smallest until 8 steps are known, then
+    the median of the newest 64 samples, as :meth:`RingBuffer.median_step`."""
+    buf = RingBuffer(1, 100)
+    t = np.r_[0.0, 0.615, 1.692, 1.846 + 0.154 * np.arange(20)]
+    buf.append(t, np.zeros((len(t), 1)))
+    assert buf.median_step(through_s=2.0) == pytest.approx(0.3845)
+    assert buf.usual_step(through_s=2.0) == pytest.approx(0.154)
+    assert np.isnan(buf.usual_step(through_s=0.0))            # one sample: no step
+    assert buf.usual_step(through_s=0.615) == pytest.approx(0.615)   # one step: itself
+    # 8 steps known through the 9th sample (1.846 + 5 x 0.154 s): the median again
+    nine = 1.846 + 5 * 0.154
+    assert buf.usual_step(through_s=nine - 0.01) == pytest.approx(0.154)
+    assert buf.usual_step(through_s=nine) == buf.median_step(through_s=nine)
+    assert buf.usual_step() == buf.median_step() == pytest.approx(0.154)
+    holes = RingBuffer(1, 100)
+    holes.append(np.r_[0.0, 1.0, 2.0, 2.1, 2.2, 3.2, 4.2, 5.2, 6.2], np.zeros((9, 1)))
+    assert holes.usual_step() == pytest.approx(1.0)          # 8 steps: the median, 1 s
+    assert holes.usual_step(few=9) == pytest.approx(0.1)
