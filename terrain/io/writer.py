@@ -248,6 +248,31 @@ def _refuse_unreadable_names(run: Run, frames: dict[str, pd.DataFrame]) -> None:
                     f"{list(COLUMN_MAPS[kind])} only); put it in a stream of its own")
 
 
+def _refuse_unreadable_time(run: Run) -> None:
+    """ConfigError for a stream whose timestamps the readers refuse: one that is not finite
+    (never repaired) or one that does not increase strictly (the readers' rule,
+    ``_check_time``)."""
+    for name, frame in run.streams.items():
+        if TIME not in frame:
+            continue
+        t = frame[TIME].to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(t))
+        if bad.size:
+            raise ConfigError(
+                f"stream {name!r} of run {run.run_id}: {bad.size} non-finite timestamp(s), "
+                f"the first {t[bad[0]]!r} at row {bad[0]}; the readers never repair a "
+                f"timestamp and would refuse {file_kind(name)}_XX.csv")
+        back = np.flatnonzero(np.diff(t) <= 0) + 1
+        if back.size:
+            row = int(back[0])
+            what = "duplicated" if t[row] == t[row - 1] else "decreasing"
+            raise ConfigError(
+                f"stream {name!r} of run {run.run_id}: {what} timestamp {t[row]!r} after "
+                f"{t[row - 1]!r} at row {row} ({back.size} such row(s)); the readers take "
+                f"timestamps that increase strictly and would refuse "
+                f"{file_kind(name)}_XX.csv: sort the stream or drop the repeats")
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -294,7 +319,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``' x'`` came back as ``'x'``, ``'a"b'`` as ``'"a""b"'``), a column of the ``imu``
         or ``wheels`` stream other than its file's canonical ones (never read back), or a
         text column the readers would refuse or change (a cell with a line break or spaces
-        around it, a number, an empty or non-finite cell among text); nothing is written then.
+        around it, a number, an empty or non-finite cell among text), or timestamps the
+        readers refuse (not finite, or not increasing strictly: a duplicated or decreasing
+        one); nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -324,6 +351,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"the readers need at least {MIN_DATA_ROWS} to know its sample "
                           f"rate and would refuse {file_kind(short[0])}_XX.csv; leave the "
                           "stream out")
+    _refuse_unreadable_time(run)
     _refuse_unreadable_names(run, frames)
     _refuse_unreadable_text(run, frames)
     folder = Path(out_dir) / terrain

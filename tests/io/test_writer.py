@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import FLOAT_FORMAT, write_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -71,8 +72,6 @@ def test_what_would_not_read_back_is_refused_before_anything_is_written(
         tmp_path, terrain, stream, words):
     # a stream 'meta' became meta_00.csv, shadowed by meta_00.json when read back: the
     # stream was lost without a word; terrain 'A/B' wrote A/B/, where no reader looks
-    from terrain.errors import ConfigError
-
     run = _run(0.0)
     streams = dict(run.streams)
     if stream:
@@ -140,3 +139,24 @@ def test_an_index_that_is_not_an_integer_of_the_layout_is_refused_before_writing
                                           rf"got {index!r}"):
         write_run(_run(0.0), tmp_path / "out", index)
     assert not (tmp_path / "out").exists()
+
+
+@pytest.mark.parametrize("stream, row, value, word", [
+    ("imu", 120, 1.0, "decreasing"), ("wheels", 7, None, "duplicated"),
+    ("wheels", 0, np.nan, "non-finite"), ("imu", 299, np.inf, "non-finite")])
+def test_timestamps_the_readers_refuse_are_refused_before_anything_is_written(
+        tmp_path, stream, row, value, word):
+    """A stream whose timestamps do not increase strictly, or hold NaN or inf, was written
+    without a word and its file refused at reading (TimestampError, NonFiniteError): the
+    run could not be read back. It is refused at writing, naming the stream, the run and
+    the row, and nothing is written."""
+    run = _run(0.0)
+    t = run.streams[stream][TIME].to_numpy().copy()
+    t[row] = t[row - 1] if value is None else value
+    run.streams[stream] = run.streams[stream].assign(**{TIME: t})
+    with pytest.raises(ConfigError) as err:
+        write_run(run, tmp_path, 0)
+    msg = str(err.value)
+    assert f"stream {stream!r} of run x/ASPHALT/00" in msg and f"row {row}" in msg, msg
+    assert word in msg, msg
+    assert not any(tmp_path.iterdir())
