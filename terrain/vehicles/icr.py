@@ -36,7 +36,9 @@ from terrain.errors import ShapeError, config_positive
 
 def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarray:
     """Least-squares slope of ``y = a x`` through the origin along the last axis, ridge
-    ``floor``: ``sum(x y) / (sum(x^2) + n floor^2)`` (NaN where the denominator is 0).
+    ``floor``: ``sum(x y) / (sum(x^2) + n floor^2)`` (NaN where the denominator is 0, or
+    where a sample of ``x`` or ``y`` is NaN or infinite: an infinite yaw rate gave 0 or
+    +-inf).
 
     Parameters
     ----------
@@ -52,8 +54,9 @@ def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarra
     n = x.shape[-1]
     den = (x ** 2).sum(axis=-1) + n * float(floor) ** 2
     num = (x * y).sum(axis=-1)
+    broken = ~(np.isfinite(x) & np.isfinite(y)).all(axis=-1)
     with np.errstate(invalid="ignore", divide="ignore"):
-        return num / den
+        return np.where(broken, np.nan, num / den)
 
 
 def _same_shape(**arrays: np.ndarray) -> None:
@@ -82,7 +85,7 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     -------
     ndarray, shape (...), or float
         ``a = sum(x y) / (sum(x^2) + n floor^2)`` (dimensionless); NaN where the denominator
-        is 0 (no sample, or no commanded turn and no floor).
+        is 0 (no sample, or no commanded turn and no floor) or a sample is NaN or infinite.
 
     Raises
     ------
@@ -127,8 +130,9 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     float
         ``chi`` (dimensionless, 1 = ideal differential drive); ``inf`` when
         ``sum(x y) <= 0`` (the vehicle does not turn, or turns against the command); NaN
-        when a sample is NaN or no turn was commanded (``sum(x^2) = 0``: no sample, or a
-        straight run with the ICR at infinity): an unknown chi, not a dug-in vehicle.
+        when a sample is NaN or infinite (an infinite yaw rate gave chi = 0, or inf) or no
+        turn was commanded (``sum(x^2) = 0``: no sample, or a straight run with the ICR at
+        infinity): an unknown chi, not a dug-in vehicle.
 
     Raises
     ------
@@ -144,7 +148,8 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
     sxy, sxx = float(np.sum(x * y)), float(np.sum(x * x))
-    if np.isnan(sxy) or sxx == 0.0:     # a straight run or no sample gave inf ("dug in")
+    # a straight run or no sample gave inf ("dug in"), an infinite sample 0 or inf
+    if not (np.isfinite(x).all() and np.isfinite(y).all()) or sxx == 0.0:
         return float("nan")
     return sxx / sxy if sxy > 0 else float("inf")
 
@@ -171,7 +176,7 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     -------
     float
         ``chi`` (dimensionless); NaN when the recording never turns, or a yaw rate (or a
-        side speed of a turning sample) is NaN: an unknown chi.
+        side speed of a turning sample) is NaN or infinite: an unknown chi.
 
     Raises
     ------
@@ -193,7 +198,8 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
     _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)
     d = right - left
-    if np.isnan(w).any():       # |NaN| > threshold is False: the sample was dropped unseen
+    # |NaN| > threshold is False: the sample was dropped unseen (an infinite one is broken)
+    if not np.isfinite(w).all():
         return float("nan")
     turning = np.abs(w) > min_yaw_rate_rad_s
     if not turning.any():
