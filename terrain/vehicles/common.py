@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import ConfigError, config_integer, config_positive
+from terrain.errors import (ConfigError, EstimationError, config_integer, config_positive,
+                            refuse_booleans)
 
 
 @register_jitable
@@ -33,6 +34,38 @@ def wrap_angle(angle_rad):
     """
     wrapped = (angle_rad + np.pi) % (2.0 * np.pi) - np.pi
     return wrapped - 2.0 * np.pi * (wrapped >= np.pi)
+
+
+def float_arrays(owner: str, **arrays) -> list[np.ndarray]:
+    """The kinematics' array arguments as float arrays, each refusal naming its argument.
+
+    Parameters
+    ----------
+    owner : str
+        The refusing function, for the message.
+    **arrays
+        Argument name -> array-like of numbers (any shape), in order.
+
+    Returns
+    -------
+    list of ndarray
+        ``np.asarray(value, dtype=float)`` of each, in the order given.
+
+    Raises
+    ------
+    EstimationError
+        An argument that holds booleans (``True`` was a speed of 1 m/s), or that does not
+        convert to numbers (text, a ragged list: NumPy's bare ValueError named none).
+    """
+    refuse_booleans(EstimationError, owner, **arrays)
+    out = []
+    for name, value in arrays.items():
+        try:
+            out.append(np.asarray(value, dtype=float))
+        except (TypeError, ValueError) as err:
+            raise EstimationError(f"{owner}: {name} must hold numbers, got "
+                                  f"{value!r:.60} ({err})") from None
+    return out
 
 
 def check_fields(params, positive: tuple = (), non_negative: tuple = (),

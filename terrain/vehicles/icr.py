@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from terrain.errors import ShapeError, config_positive
+from terrain.vehicles.common import float_arrays
 
 
 def _origin_slope(y: np.ndarray, x: np.ndarray, floor: float = 0.0) -> np.ndarray:
@@ -91,6 +92,8 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     ------
     ShapeError
         The two arrays differ in shape, or are single numbers (no sample axis).
+    EstimationError
+        An array of booleans, or one that is not numbers (text), named.
     ConfigError
         ``floor_rad_s`` not a finite number >= 0 (text, None or a boolean included).
 
@@ -100,8 +103,8 @@ def inverse_icr_factor(yaw_rate_rad_s: np.ndarray, commanded_yaw_rate_rad_s: np.
     """
     # NaN gave NaN for every fit, a negative floor acted as its absolute value (squared)
     config_positive("inverse_icr_factor", allow_zero=True, floor_rad_s=floor_rad_s)
-    y = np.asarray(yaw_rate_rad_s, dtype=float)
-    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
+    y, x = float_arrays("inverse_icr_factor", yaw_rate_rad_s=yaw_rate_rad_s,
+                        commanded_yaw_rate_rad_s=commanded_yaw_rate_rad_s)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
     if x.ndim == 0:     # x.shape[-1] of _origin_slope raised a bare IndexError
         raise ShapeError("inverse_icr_factor: the yaw rates need a sample axis, shape (..., n), "
@@ -138,14 +141,16 @@ def icr_expansion_factor(yaw_rate_rad_s: np.ndarray,
     ------
     ShapeError
         The two arrays differ in shape.
+    EstimationError
+        An array of booleans, or one that is not numbers (text), named.
 
     References
     ----------
     Mandow et al., "Experimental kinematics for wheeled skid-steer mobile robots", IROS 2007;
     seed ``000_f24201ff985633bf.txt`` eqs. 2-3.
     """
-    y = np.asarray(yaw_rate_rad_s, dtype=float)
-    x = np.asarray(commanded_yaw_rate_rad_s, dtype=float)
+    y, x = float_arrays("icr_expansion_factor", yaw_rate_rad_s=yaw_rate_rad_s,
+                        commanded_yaw_rate_rad_s=commanded_yaw_rate_rad_s)
     _same_shape(yaw_rate_rad_s=y, commanded_yaw_rate_rad_s=x)
     sxy, sxx = float(np.sum(x * y)), float(np.sum(x * x))
     # a straight run or no sample gave inf ("dug in"), an infinite sample 0 or inf
@@ -182,6 +187,8 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     ------
     ShapeError
         The three arrays differ in shape.
+    EstimationError
+        An array of booleans, or one that is not numbers (text), named.
     ConfigError
         ``track_m`` is not a finite length > 0 (a negative one flipped chi's sign, 0 gave
         NaN), or ``min_yaw_rate_rad_s`` not a finite number >= 0 (text, None or a boolean
@@ -194,8 +201,8 @@ def chi_from_truth(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, yaw_rate_rad
     config_positive("chi_from_truth", track_m=track_m)
     # NaN left every sample out (NaN: "never turns"), True was a 1 rad/s threshold
     config_positive("chi_from_truth", allow_zero=True, min_yaw_rate_rad_s=min_yaw_rate_rad_s)
-    w = np.asarray(yaw_rate_rad_s, dtype=float)
-    left, right = np.asarray(v_left_m_s, dtype=float), np.asarray(v_right_m_s, dtype=float)
+    left, right, w = float_arrays("chi_from_truth", v_left_m_s=v_left_m_s,
+                                  v_right_m_s=v_right_m_s, yaw_rate_rad_s=yaw_rate_rad_s)
     _same_shape(v_left_m_s=left, v_right_m_s=right, yaw_rate_rad_s=w)
     d = right - left
     # |NaN| > threshold is False: the sample was dropped unseen (an infinite one is broken)

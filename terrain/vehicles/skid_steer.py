@@ -15,7 +15,8 @@ import numpy as np
 from numba.extending import register_jitable
 
 from terrain.errors import EstimationError, ShapeError, config_positive
-from terrain.vehicles.common import ContactGeometry, MotorParams, check_fields, check_motor
+from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
+                                     float_arrays)
 
 
 def _husky_motor() -> MotorParams:
@@ -237,8 +238,9 @@ TRACKED = TrackedParams()
 def _broadcast(owner: str, **arrays: np.ndarray) -> list[np.ndarray]:
     """The arrays as floats broadcast to one shape (a single number stands for every
     sample); :class:`~terrain.errors.ShapeError` naming every shape when they do not
-    broadcast (NumPy's bare ValueError before)."""
-    values = [np.asarray(a, dtype=float) for a in arrays.values()]
+    broadcast (NumPy's bare ValueError before), :class:`~terrain.errors.EstimationError`
+    naming an argument of booleans or of what is not numbers (:func:`float_arrays`)."""
+    values = float_arrays(owner, **arrays)
     try:
         return np.broadcast_arrays(*values)
     except ValueError:
@@ -278,6 +280,8 @@ def skid_steer_forward(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray, track_m:
     ShapeError
         Speeds and efficiencies of shapes that do not broadcast (a single number stands for
         every sample).
+    EstimationError
+        An array argument of booleans, or one that is not numbers (text), named.
     """
     config_positive("skid_steer_forward", track_m=track_m, chi=chi)
     vl, vr, el, er = _broadcast("skid_steer_forward", v_left_m_s=v_left_m_s,
@@ -336,6 +340,8 @@ def skid_steer_inverse(v_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, track_m: f
         outer side; booleans refused).
     ShapeError
         ``v_m_s`` and ``yaw_rate_rad_s`` of shapes that do not broadcast.
+    EstimationError
+        An array argument of booleans, or one that is not numbers (text), named.
     """
     config_positive("skid_steer_inverse", track_m=track_m, chi=chi)
     v, w = _broadcast("skid_steer_inverse", v_m_s=v_m_s, yaw_rate_rad_s=yaw_rate_rad_s)
@@ -387,6 +393,8 @@ def skid_steer_pose_rates(yaw_rad: np.ndarray, v_m_s: np.ndarray,
     ------
     ShapeError
         Arrays of shapes that do not broadcast (a single number stands for every sample).
+    EstimationError
+        An array argument of booleans, or one that is not numbers (text), named.
     """
     yaw, v, w = _broadcast("skid_steer_pose_rates", yaw_rad=yaw_rad, v_m_s=v_m_s,
                            yaw_rate_rad_s=yaw_rate_rad_s)
@@ -420,6 +428,8 @@ def endo_slip_ratio_ratio(v_left_m_s: np.ndarray, v_right_m_s: np.ndarray,
         ``n`` not a finite number >= 0 (NaN, a boolean, a negative exponent).
     ShapeError
         The two speeds of shapes that do not broadcast.
+    EstimationError
+        An array argument of booleans, or one that is not numbers (text), named.
     """
     config_positive("endo_slip_ratio_ratio", allow_zero=True, n=n)
     vl, vr = _broadcast("endo_slip_ratio_ratio", v_left_m_s=v_left_m_s, v_right_m_s=v_right_m_s)
