@@ -116,7 +116,8 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     dt_s : float
         Physics step, s.
     rng : numpy.random.Generator
-        Randomness of ``random`` (others are deterministic).
+        Randomness of ``random`` (others are deterministic and draw nothing: any value,
+        None included, is fine for them).
     max_speed_m_s : float
         Vehicle speed limit, m/s. ``straight_accel``, ``orchard`` and ``slope_turn`` cap their
         speed at 0.95 of it; ``random`` draws ``v_x`` in ``[-0.3, 1]`` and ``v_y`` in
@@ -141,13 +142,19 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     ConfigError
         Unknown scenario, a physics step or a duration that is not a finite time > 0, a
         duration that rounds to less than one physics step, a speed limit that is not
-        finite and > 0, or a track that is not finite and >= 0.
+        finite and > 0, a track that is not finite and >= 0, or ``random`` without a
+        :class:`numpy.random.Generator`.
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
     config_positive("make_commands", dt_s=dt_s, duration_s=duration_s,
                     max_speed_m_s=max_speed_m_s)
     config_positive("make_commands", allow_zero=True, track_m=track_m)
+    if name == "random" and not isinstance(rng, np.random.Generator):
+        # None or a seed was an AttributeError ('NoneType' object has no attribute 'uniform')
+        raise ConfigError(f"make_commands.rng must be a numpy.random.Generator for the "
+                          f"random scenario (np.random.default_rng(seed)), got "
+                          f"{type(rng).__name__}")
     n = physics_steps(duration_s, dt_s) + 1
     if n < 2:
         raise ConfigError(f"duration {duration_s} s is shorter than one physics step "
