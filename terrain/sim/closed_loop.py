@@ -47,7 +47,8 @@ from terrain.sim.forces import check_physics, reported_current_a
 from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
                                  quantise, vibration_level, vibration_pole,
                                  vibration_signals)
-from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, Simulation, simulate_with_physics
+from terrain.sim.simulate import (DEFAULT_SENSORS, SimConfig, Simulation, is_name_sequence,
+                                  simulate_with_physics)
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -151,7 +152,7 @@ class OnlineSensors:
     ConfigError
         Unknown vehicle, terrain or physics version, a seed that is not an integer >= 0,
         a duration that is not finite and > 0, ``sensors`` not :class:`SensorSettings`, or
-        ``terrains`` one string instead of a sequence of names.
+        ``terrains`` not a sequence of names (one string, bytes, a number).
     """
 
     def __init__(self, vehicle: str, sensors: SensorSettings, seed: int,
@@ -165,6 +166,10 @@ class OnlineSensors:
         if isinstance(terrains, str):
             raise ConfigError(f"OnlineSensors.terrains must be a sequence of terrain names, "
                               f"got the string {terrains!r}")
+        if not is_name_sequence(terrains):
+            # 5 was a bare TypeError (not iterable), b"ASPHALT" "unknown terrain 65"
+            raise ConfigError(f"OnlineSensors.terrains must be a sequence of terrain names, "
+                              f"got {type(terrains).__name__} {terrains!r:.60}")
         self.vehicle = get_vehicle(vehicle)
         check_physics(physics)   # here, not at the first current sample of the run
         self.physics = physics

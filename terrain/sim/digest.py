@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Sequence
 
 from terrain.errors import ConfigError
-from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig
+from terrain.sim.simulate import DEFAULT_SENSORS, SimConfig, is_name_sequence
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle
 
@@ -95,8 +95,13 @@ def simulator_digest(vehicle: str, terrains: Sequence[str]) -> str:
     Raises
     ------
     ConfigError
-        Unknown vehicle or terrain.
+        Unknown vehicle or terrain, or ``terrains`` not a sequence of names (one string,
+        a number).
     """
+    if not is_name_sequence(terrains):
+        # "ASPHALT" was read letter by letter ("unknown terrain 'A'"), 5 a bare TypeError
+        raise ConfigError(f"simulator_digest: terrains must be a sequence of terrain names, "
+                          f"got {type(terrains).__name__} {terrains!r:.60}")
     params = get_vehicle(vehicle)
     parts = [SimConfig().physics, repr(DEFAULT_SENSORS[params.name]), repr(params)]
     parts += [repr(get_terrain(t)) for t in sorted(str(t).upper() for t in terrains)]

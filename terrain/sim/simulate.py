@@ -186,6 +186,29 @@ def parse_terrain_list(text: str) -> tuple[str, ...]:
     return names
 
 
+def is_name_sequence(value: Any) -> bool:
+    """Whether ``value`` can be a sequence of names (terrains of a run).
+
+    Parameters
+    ----------
+    value : object
+        What was given.
+
+    Returns
+    -------
+    bool
+        True for a list, tuple or other iterable; False for one string or bytes (iterated
+        letter by letter, byte by byte) and for what is not iterable (a number).
+    """
+    if isinstance(value, (str, bytes, bytearray)):
+        return False
+    try:
+        iter(value)
+    except TypeError:
+        return False
+    return True
+
+
 @dataclass(frozen=True)
 class SimConfig:
     """What to simulate.
@@ -226,6 +249,7 @@ class SimConfig:
         Unknown vehicle, terrain, scenario or physics version (the message lists the valid
         choices), or a duration, rate, segment length or seed out of range (a duration too short for
         two samples of every stream names the slowest stream and the minimum in seconds),
+        or terrains that are not a sequence of names (one string, bytes, a number),
         or ``icr_expansion`` planted on a steered vehicle or ``grade_resistance`` on a level
         scenario (:data:`~terrain.sim.scenarios.SCENARIO_SLOPES_RAD`; either would change
         nothing), or a number given as text, None or a boolean, or ``effects`` not
@@ -260,6 +284,10 @@ class SimConfig:
             raise ConfigError(f"terrains must be a sequence of terrain names, got the string "
                               f"{self.terrains!r} (split a comma-separated list with "
                               "parse_terrain_list)")
+        if not is_name_sequence(self.terrains):
+            # 5 was a bare TypeError (not iterable), b"ASPHALT" "unknown terrain 65"
+            raise ConfigError(f"SimConfig.terrains must be a sequence of terrain names, got "
+                              f"{type(self.terrains).__name__} {self.terrains!r:.60}")
         if not self.terrains:
             raise ConfigError("at least one terrain is needed")
         for t in self.terrains:

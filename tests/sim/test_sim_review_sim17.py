@@ -6,7 +6,11 @@ import numpy as np
 import pytest
 
 from terrain.errors import ConfigError
+from terrain.sim import SimConfig
+from terrain.sim.closed_loop import OnlineSensors
+from terrain.sim.digest import simulator_digest
 from terrain.sim.scenarios import make_commands
+from terrain.sim.simulate import DEFAULT_SENSORS
 
 
 @pytest.mark.parametrize("rng", [None, 3, np.random.RandomState(0)])
@@ -16,3 +20,19 @@ def test_the_random_scenario_needs_a_generator(rng):
         make_commands("random", 1.0, 0.01, rng, 1.0)
     # the deterministic scenarios draw nothing: any rng (None included) is fine
     assert make_commands("spin", 1.0, 0.01, rng, 1.0).twist.shape == (101, 3)
+
+
+@pytest.mark.parametrize("terrains", [5, b"ASPHALT", 2.5])
+def test_a_terrain_list_that_is_not_a_sequence_of_names_is_refused(terrains):
+    # 5 was a bare "'int' object is not iterable"; b"ASPHALT" "unknown terrain 65" (a byte)
+    with pytest.raises(ConfigError, match="SimConfig.terrains"):
+        SimConfig(terrains=terrains)
+    with pytest.raises(ConfigError, match="OnlineSensors.terrains"):
+        OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0, terrains=terrains)
+
+
+@pytest.mark.parametrize("terrains", ["ASPHALT", 5])
+def test_the_simulator_digest_needs_a_sequence_of_terrain_names(terrains):
+    # "ASPHALT" was read letter by letter ("unknown terrain 'A'"), 5 a bare TypeError
+    with pytest.raises(ConfigError, match="simulator_digest"):
+        simulator_digest("husky", terrains)
