@@ -159,7 +159,7 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
     ConfigError
         Unknown name, malformed item, a name given twice, non-numeric or out-of-range value
         (a mapping's value that is a boolean, None or not one real number included), or
-        one string instead of a sequence of items.
+        one string (or bytes, or a number) instead of a sequence of items.
     """
     if items is None:
         return Effects()
@@ -167,6 +167,16 @@ def parse_effects(items: Iterable[str] | Mapping[str, float] | None) -> Effects:
         # a string is iterable too: "gyro_bias=0.1" was read letter by letter ('g' ...)
         raise ConfigError(f"parse_effects takes a sequence of NAME=VALUE items, got the "
                           f"string {items!r}; give [{items!r}]")
+    if not isinstance(items, Mapping):
+        try:
+            iter(items)
+            iterable = not isinstance(items, (bytes, bytearray))
+        except TypeError:
+            iterable = False
+        if not iterable:
+            # 5 was a bare TypeError ('int' object is not iterable)
+            raise ConfigError(f"parse_effects takes a sequence of NAME=VALUE items or a "
+                              f"mapping, got {type(items).__name__}")
     pairs: dict[str, float] = {}
     source = items.items() if isinstance(items, Mapping) else None
     if source is None:

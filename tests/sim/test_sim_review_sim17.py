@@ -9,6 +9,7 @@ from terrain.errors import ConfigError
 from terrain.sim import SimConfig
 from terrain.sim.closed_loop import OnlineSensors
 from terrain.sim.digest import simulator_digest
+from terrain.sim.effects import parse_effects
 from terrain.sim.scenarios import make_commands
 from terrain.sim.simulate import DEFAULT_SENSORS
 
@@ -36,3 +37,10 @@ def test_the_simulator_digest_needs_a_sequence_of_terrain_names(terrains):
     # "ASPHALT" was read letter by letter ("unknown terrain 'A'"), 5 a bare TypeError
     with pytest.raises(ConfigError, match="simulator_digest"):
         simulator_digest("husky", terrains)
+
+
+@pytest.mark.parametrize("items", [5, 2.5, b"gyro_bias=0.1"])
+def test_effect_items_that_are_not_a_sequence_are_refused(items):
+    # 5 was a bare "'int' object is not iterable"
+    with pytest.raises(ConfigError, match="parse_effects"):
+        parse_effects(items)
