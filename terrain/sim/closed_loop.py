@@ -423,10 +423,15 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
     Raises
     ------
     ConfigError
-        Bad configuration or rate, or a sensor or the controller faster than
-        ``config.physics_rate_hz``.
+        Bad configuration or rate, a sensor or the controller faster than
+        ``config.physics_rate_hz``, or a controller that is not callable.
     """
     _check_control_rate(config, control_rate_hz)
+    if not callable(controller):
+        # None was a bare TypeError ('NoneType' object is not callable) at the first call
+        raise ConfigError(f"simulate_closed_loop: controller must be callable, "
+                          f"controller(observation) -> correction, got "
+                          f"{type(controller).__name__}")
     settings = config.sensors or DEFAULT_SENSORS[config.vehicle]
     _check_sensor_rates(config, settings)
     sensors = OnlineSensors(config.vehicle, settings, config.seed, config.duration_s,

@@ -7,7 +7,7 @@ import pytest
 
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig
-from terrain.sim.closed_loop import OnlineSensors
+from terrain.sim.closed_loop import OnlineSensors, simulate_closed_loop
 from terrain.sim.digest import simulator_digest
 from terrain.sim.effects import parse_effects
 from terrain.sim.scenarios import make_commands
@@ -44,3 +44,10 @@ def test_effect_items_that_are_not_a_sequence_are_refused(items):
     # 5 was a bare "'int' object is not iterable"
     with pytest.raises(ConfigError, match="parse_effects"):
         parse_effects(items)
+
+
+def test_a_controller_that_is_not_callable_is_refused_before_the_run():
+    # None was a bare TypeError ('NoneType' object is not callable) at the first call,
+    # after the integrator had started
+    with pytest.raises(ConfigError, match="controller"):
+        simulate_closed_loop(SimConfig(duration_s=1.0), None)
