@@ -2,6 +2,10 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -9,9 +13,12 @@ from terrain.errors import ConfigError
 from terrain.sim import SimConfig
 from terrain.sim.closed_loop import OnlineSensors, simulate_closed_loop
 from terrain.sim.digest import simulator_digest
+from terrain.sim.dynamics import integrate, wheel_commands
 from terrain.sim.effects import parse_effects
 from terrain.sim.scenarios import make_commands
 from terrain.sim.simulate import DEFAULT_SENSORS
+from terrain.terramechanics.catalogue import get_terrain
+from terrain.vehicles import HUSKY, TRACKED
 
 
 @pytest.mark.parametrize("rng", [None, 3, np.random.RandomState(0)])
@@ -51,3 +58,85 @@ def test_a_controller_that_is_not_callable_is_refused_before_the_run():
     # after the integrator had started
     with pytest.raises(ConfigError, match="controller"):
         simulate_closed_loop(SimConfig(duration_s=1.0), None)
+
+
+def _spin_end(rate_rad_s, dt):
+    """Yaw rate and right-side slip of a Husky after 5 s of a spin in place on PACKED_SNOW
+    (command ramped over 0.5 s), physics v1, step ``dt``."""
+    t = np.arange(0.0, 5.0 + 0.5 * dt, dt)
+    tw = np.column_stack([0 * t, 0 * t, rate_rad_s * np.minimum(t / 0.5, 1.0)])
+    p = integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("PACKED_SNOW"),), np.inf, t,
+                  tw, 0.0, 1.0)
+    return p.twist[-1, 2], p.slip_motor[-1, 1]
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "left open (sim17): a spin in place on a peaked traction curve is bistable (gripping, "
+    "slip 0.02, or spun out, slip 0.7), and the step decides which: at 0.375 rad/s the "
+    "default 100 Hz physics spins out (yaw rate 0.10 rad/s, slip 0.73) where 1 kHz and "
+    "finer grip (0.366 rad/s, slip 0.02); the spin-out threshold lies between 0.34 and "
+    "0.375 rad/s at 100 Hz and between 0.375 and 0.4 rad/s at 1 kHz. The first-order "
+    "convergence property of test_force_properties_tm15 fails on such draws (husky, "
+    "PACKED_SNOW, v1, v = 0, r = 0.375). A fix changes the integrator, hence every "
+    "simulated run and the documented figures made from them"))
+def test_the_default_step_decides_a_spin_out_as_the_converged_model_does():
+    fine_rate, fine_slip = _spin_end(0.375, 0.001)
+    assert fine_slip < 0.05                       # the converged model grips
+    rate, slip = _spin_end(0.375, 0.01)
+    assert rate == pytest.approx(fine_rate, rel=0.1)
+
+
+def test_the_spin_out_is_a_property_of_the_model_away_from_its_threshold():
+    # below and above the band both steps agree: grip at 0.3, spun out at 0.45 rad/s
+    for rate_cmd, gripping in ((0.3, True), (0.45, False)):
+        ends = [_spin_end(rate_cmd, dt) for dt in (0.01, 0.001)]
+        assert ends[0][0] == pytest.approx(ends[1][0], rel=0.02)
+        assert all((slip < 0.05) == gripping for _, slip in ends)
+
+
+@pytest.mark.parametrize("vehicle", [HUSKY, TRACKED])
+def test_a_command_exactly_at_the_speed_limit_is_not_counted_as_clipped(vehicle):
+    # kills the mutant '>= wmax' of wheel_commands: only a command above the limit is
+    # clipped (and counted in speed_limit_clipped_steps)
+    geo = vehicle.contact_geometry()
+    wmax = vehicle.motor.max_wheel_speed_rad_s
+    v = wmax * geo.wheel_radius_m
+    assert v / geo.wheel_radius_m == wmax          # the side speed is the limit exactly
+    above = np.nextafter(v, np.inf)
+    twist = np.array([[v, 0.0, 0.0], [above, 0.0, 0.0], [-v, 0.0, 0.0], [0.0, 0.0, 0.0]])
+    omega, _, clipped = wheel_commands(vehicle, geo, twist)
+    np.testing.assert_array_equal(clipped, [1, 1])
+    np.testing.assert_array_equal(omega[:3], [[wmax, wmax], [wmax, wmax], [-wmax, -wmax]])
+
+
+def test_the_simulator_digest_covers_every_module_a_simulation_imports():
+    # kills a SIMULATOR_MODULES without terrain.errors: an edit of a module the simulator
+    # imports must invalidate the caches of simulated runs
+    code = ("import sys, terrain.sim.closed_loop, terrain.sim.digest as d; "
+            "print(' '.join(m for m in sys.modules if m.startswith('terrain.') and not "
+            "any(m == p or m.startswith(p + '.') for p in d.SIMULATOR_MODULES)))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == [], out
+
+
+@pytest.mark.parametrize("field, steered_only", [("cam_rate_hz", True),
+                                                 ("steer_rate_hz", True),
+                                                 ("imu_rate_hz", False)])
+def test_a_steered_vehicles_camera_and_steering_sensors_are_held_to_the_physics_rate(
+        field, steered_only):
+    # the AgriMaRo's camera and steering encoders are sampled online too: faster than the
+    # physics they would come at the physics rate; a skid-steer has neither (not checked)
+    sensors = replace(DEFAULT_SENSORS["agrimaro"], **{field: 200.0})
+    config = SimConfig(vehicle="agrimaro", terrains=("ASPHALT",), scenario="spin",
+                       duration_s=0.2, sensors=sensors)
+    with pytest.raises(ConfigError, match=f"{field} 200 Hz"):
+        simulate_closed_loop(config, lambda observation: None)
+    husky = SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="spin",
+                      duration_s=0.2, sensors=replace(DEFAULT_SENSORS["husky"],
+                                                      **{field: 200.0}))
+    if steered_only:
+        simulate_closed_loop(husky, lambda observation: None)
+    else:
+        with pytest.raises(ConfigError, match=f"{field} 200 Hz"):
+            simulate_closed_loop(husky, lambda observation: None)
