@@ -468,8 +468,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         inclination in (-pi/2, pi/2), a ``chi`` that is not finite and >= 1 (or not 1 for
         a steered vehicle, which it would not change), or a segment
         length, slope or ``chi`` given as text, None or a boolean, or ``t_s``,
-        ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans, or a
-        lateral velocity command (``v_y`` not 0) for a vehicle that does not steer.
+        ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans, a
+        lateral velocity command (``v_y`` not 0) for a vehicle that does not steer, or a
+        ``hook`` that is not callable.
     TimeStepError
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
@@ -486,6 +487,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         vehicles and terrains).
     """
     check_physics(physics)
+    if hook is not None and not callable(hook):
+        # 5 was a bare TypeError ('int' object is not callable) after the first step
+        raise ConfigError(f"integrate.hook must be callable, hook(PlantSnapshot) -> "
+                          f"correction or None, got {type(hook).__name__}")
     twist_cmd = _check_grid_and_commands(t_s, twist_cmd)
     if isinstance(terrains, TerrainParams) or not isinstance(terrains, (tuple, list)):
         raise ConfigError(f"integrate.terrains must be a tuple of TerrainParams "

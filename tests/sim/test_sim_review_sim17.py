@@ -140,3 +140,12 @@ def test_a_steered_vehicles_camera_and_steering_sensors_are_held_to_the_physics_
     else:
         with pytest.raises(ConfigError, match=f"{field} 200 Hz"):
             simulate_closed_loop(husky, lambda observation: None)
+
+
+@pytest.mark.parametrize("hook", [5, "controller", np.zeros(2)])
+def test_integrate_refuses_a_hook_that_is_not_callable(hook):
+    # 5 was a bare TypeError ('int' object is not callable) after the first step
+    t = np.arange(11) * 0.01
+    with pytest.raises(ConfigError, match="integrate.hook"):
+        integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), np.inf, t,
+                  np.zeros((len(t), 3)), 0.0, 1.0, hook=hook)
