@@ -342,9 +342,19 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
     Raises
     ------
     ConfigError
-        A rate that is not a finite number > 0 (text, None or a boolean included).
+        A rate that is not a finite number > 0 (text, None or a boolean included), a
+        controller that is not callable, or ``sensors`` without the ``record`` and ``take``
+        of :class:`OnlineSensors`.
     """
     config_positive("make_hook", control_rate_hz=control_rate_hz)
+    # each failed only at its first use, inside the run: None as the controller with a bare
+    # TypeError at the first control call, None as the sensors with an AttributeError
+    if not callable(controller):
+        raise ConfigError(f"make_hook.controller must be callable, controller(observation) "
+                          f"-> correction, got {type(controller).__name__}")
+    if not all(callable(getattr(sensors, m, None)) for m in ("record", "take")):
+        raise ConfigError(f"make_hook.sensors must be OnlineSensors (record and take), got "
+                          f"{type(sensors).__name__}")
     period = 1.0 / control_rate_hz
     state = {"calls": 0}
 
@@ -427,11 +437,6 @@ def simulate_closed_loop(config: SimConfig, controller: Callable[[Observation], 
         ``config.physics_rate_hz``, or a controller that is not callable.
     """
     _check_control_rate(config, control_rate_hz)
-    if not callable(controller):
-        # None was a bare TypeError ('NoneType' object is not callable) at the first call
-        raise ConfigError(f"simulate_closed_loop: controller must be callable, "
-                          f"controller(observation) -> correction, got "
-                          f"{type(controller).__name__}")
     settings = config.sensors or DEFAULT_SENSORS[config.vehicle]
     _check_sensor_rates(config, settings)
     sensors = OnlineSensors(config.vehicle, settings, config.seed, config.duration_s,

@@ -11,7 +11,7 @@ import pytest
 
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig
-from terrain.sim.closed_loop import OnlineSensors, simulate_closed_loop
+from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
 from terrain.sim.digest import simulator_digest
 from terrain.sim.dynamics import integrate, wheel_commands
 from terrain.sim.effects import parse_effects
@@ -149,3 +149,14 @@ def test_integrate_refuses_a_hook_that_is_not_callable(hook):
     with pytest.raises(ConfigError, match="integrate.hook"):
         integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), np.inf, t,
                   np.zeros((len(t), 3)), 0.0, 1.0, hook=hook)
+
+
+def test_make_hook_refuses_a_controller_or_sensors_it_cannot_use():
+    # make_hook(sensors, None, 50) returned a hook that failed at its first control call
+    # with a bare TypeError ('NoneType' object is not callable), and make_hook(None, ...)
+    # at its first record with an AttributeError
+    sensors = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 0, 1.0)
+    with pytest.raises(ConfigError, match="make_hook.controller"):
+        make_hook(sensors, None, 50.0)
+    with pytest.raises(ConfigError, match="make_hook.sensors"):
+        make_hook(None, lambda observation: None, 50.0)
