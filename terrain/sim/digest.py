@@ -58,8 +58,13 @@ def source_digest(modules: Sequence[str]) -> str:
     Raises
     ------
     ConfigError
-        A module that cannot be found.
+        A module that cannot be found, or ``modules`` not a sequence of names (one string,
+        bytes, a number).
     """
+    if not is_name_sequence(modules):
+        # "terrain.sim" was read letter by letter ("source digest: no module 't'")
+        raise ConfigError(f"source_digest: modules must be a sequence of module names, got "
+                          f"{type(modules).__name__} {modules!r:.60}")
     h = hashlib.sha1()
     for module in modules:
         # relative to the package's folder (the first file's folder was a subpackage's

@@ -12,7 +12,7 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
-from terrain.sim.digest import simulator_digest
+from terrain.sim.digest import simulator_digest, source_digest
 from terrain.sim.dynamics import integrate, wheel_commands
 from terrain.sim.effects import parse_effects
 from terrain.sim.scenarios import make_commands
@@ -160,3 +160,10 @@ def test_make_hook_refuses_a_controller_or_sensors_it_cannot_use():
         make_hook(sensors, None, 50.0)
     with pytest.raises(ConfigError, match="make_hook.sensors"):
         make_hook(None, lambda observation: None, 50.0)
+
+
+@pytest.mark.parametrize("modules", ["terrain.sim", b"terrain.sim", 5])
+def test_source_digest_needs_a_sequence_of_module_names(modules):
+    # "terrain.sim" was read letter by letter: "source digest: no module 't'"
+    with pytest.raises(ConfigError, match="source_digest"):
+        source_digest(modules)
