@@ -16,7 +16,7 @@ from terrain.sim.digest import simulator_digest, source_digest
 from terrain.sim.dynamics import integrate, wheel_commands
 from terrain.sim.effects import parse_effects
 from terrain.sim.scenarios import make_commands
-from terrain.sim.simulate import DEFAULT_SENSORS
+from terrain.sim.simulate import DEFAULT_SENSORS, simulate_with_physics
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import HUSKY, TRACKED
 
@@ -167,3 +167,29 @@ def test_source_digest_needs_a_sequence_of_module_names(modules):
     # "terrain.sim" was read letter by letter: "source digest: no module 't'"
     with pytest.raises(ConfigError, match="source_digest"):
         source_digest(modules)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "left open (sim17): the AgriMaRo's steering offsets inside the dead band (seed 001 ch. "
+    "6.1.1), a property of the robot, are drawn from the run's generator after the random "
+    "scenario's segments, whose number depends on the duration: the same seed driven for "
+    "2 s and for 6 s has other offsets, and the 6 s run does not start as the 2 s one "
+    "(seed 1: 0.03 m apart after 2 s). Drawing them from a generator of their own changes "
+    "every simulated AgriMaRo run and the documented figures made from them"))
+def test_a_longer_run_of_the_same_seed_starts_as_the_shorter_one():
+    short, long = (simulate_with_physics(SimConfig(vehicle="agrimaro", scenario="random",
+                                                   duration_s=d, seed=1)) for d in (2.0, 6.0))
+    n = len(short.physics.t_s)
+    assert short.run.meta["steering_offset_rad"] == long.run.meta["steering_offset_rad"]
+    np.testing.assert_allclose(long.physics.pose[:n], short.physics.pose, rtol=0, atol=1e-9)
+
+
+def test_a_longer_run_of_a_skid_steer_starts_as_the_shorter_one():
+    # causality of the integrator and of the scenario (the random segments are drawn in
+    # order): the physics of a longer run of the same seed begins as the shorter run's
+    short, long = (simulate_with_physics(SimConfig(vehicle="husky", scenario="random",
+                                                   duration_s=d, seed=1)) for d in (2.0, 6.0))
+    n = len(short.physics.t_s)
+    for name in ("pose", "twist", "omega", "torque", "slip_motor"):
+        np.testing.assert_array_equal(getattr(long.physics, name)[:n],
+                                      getattr(short.physics, name), err_msg=name)
