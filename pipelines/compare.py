@@ -35,6 +35,32 @@ QUICK = dict(models=("svm", "cnn"), signals=("all",), windows_s=(2.0,), datasets
              seeds=(0,), n_splits=2, max_epochs=1, n_threads=1)
 
 
+def _address(value: str) -> str:
+    """argparse ``type`` of ``--address``: a cluster address, not empty.
+
+    Parameters
+    ----------
+    value : str
+        The option's text (``tcp://host:8786`` for Dask, a Ray address).
+
+    Returns
+    -------
+    str
+        ``value`` unchanged.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        The value is empty or blank: ``--address $SCHEDULER`` with the variable unset ran
+        the grid on a local cluster of this machine (an empty address is no address).
+    """
+    if not value.strip():
+        raise argparse.ArgumentTypeError(
+            "an empty address (give the scheduler's, e.g. tcp://host:8786, or leave --address "
+            "out for a local cluster)")
+    return value
+
+
 def _n_jobs(value: str) -> int:
     """argparse ``type`` of ``--n-jobs``: joblib's worker count, any integer but 0 (-1:
     every worker; -2: all but one).
@@ -96,7 +122,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="small grid (smoke test: 2 models, Vulpi, 2 folds, 1 CNN epoch); "
                              "refuses the grid and training options it replaces")
     parser.add_argument("--backend", choices=BACKENDS, default="loky")
-    parser.add_argument("--address", default=None,
+    parser.add_argument("--address", type=_address, default=None,
                         help="Dask scheduler (tcp://host:8786) or Ray address; "
                              "default: a local cluster")
     parser.add_argument("--n-jobs", type=_n_jobs, default=-1,
