@@ -234,9 +234,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         ConfigError
             ``max_epochs`` or ``width`` not an integer >= 1, ``n_threads`` neither ``None``
             nor one, ``random_state`` not an integer in [0, 2**32 - 1];
-            ``early_stopping=True`` without ``groups``, with ``validation_splits`` not an
-            integer >= 2, above the number of runs or above the windows of every class,
-            or with no validation split that leaves a training run of every class;
+            ``early_stopping=True`` without ``groups``, with ``patience`` not an integer >= 1,
+            with ``validation_splits`` not an integer >= 2, above the number of runs or
+            above the windows of every class, or with no validation split that leaves a
+            training run of every class;
             (spectrogram CNN) ``augment_noise_std``
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel.
@@ -279,6 +280,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         if self.early_stopping:
             if groups is None:
                 raise ConfigError("early_stopping needs the run of every window (groups)")
+            # skorch stops when its count of epochs without improvement equals the patience:
+            # 0 stopped every fit after its first epoch, -1 or 2.5 never stopped one
+            config_integer("patience", self.patience, 1)
             fit_idx, val_idx = class_keeping_split(
                 y, groups, self.validation_splits, self.random_state, "early stopping",
                 "validation_splits", "early_stopping=False")
@@ -461,7 +465,7 @@ class RawCNNClassifier(_WindowCNN):
     validation_splits : int
         ``1 / validation_splits`` of the training runs are held out for early stopping.
     patience : int
-        Epochs without validation improvement before stopping.
+        Epochs without validation improvement before stopping (>= 1).
     random_state : int
         Seed of weights, shuffling, dropout and the validation split, in [0, 2**32 - 1].
     device : str
@@ -549,7 +553,7 @@ class SpectrogramCNNClassifier(_WindowCNN):
     validation_splits : int
         ``1 / validation_splits`` of the training runs are held out for early stopping.
     patience : int
-        Epochs without validation improvement before stopping.
+        Epochs without validation improvement before stopping (>= 1).
     random_state : int
         Seed of weights, shuffling, dropout and the validation split, in [0, 2**32 - 1].
     device : str

@@ -1,0 +1,36 @@
+"""CNN settings and inputs refused by name (review mdl17)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.models.cnn import RawCNNClassifier
+
+TINY = dict(max_epochs=4, width=2, batch_size=8, n_threads=1, device="cpu")
+
+
+def _runs():
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(16, 2, 20)).astype(np.float32)
+    y = np.array(["A", "B"] * 8)
+    groups = np.array([f"run{i % 8}" for i in range(16)])
+    return X, y, groups
+
+
+@pytest.mark.parametrize("patience", [0, -1, 2.5, True, None])
+def test_early_stopping_patience_not_a_whole_number_of_epochs_is_refused(patience):
+    # skorch stops when its count of epochs without improvement *equals* the patience: 0
+    # stopped every fit after its first epoch (a count reset to 0 by the first improvement),
+    # -1 or 2.5 never stopped it (the budget ran whole with early stopping asked)
+    X, y, groups = _runs()
+    model = RawCNNClassifier(**TINY, early_stopping=True, validation_splits=2,
+                             patience=patience)
+    with pytest.raises(ConfigError, match="patience"):
+        model.fit(X, y, groups=groups)
+
+
+def test_a_patience_is_not_checked_without_early_stopping():
+    X, y, _ = _runs()
+    assert RawCNNClassifier(**TINY, patience=0).fit(X, y).n_epochs_ == 4
