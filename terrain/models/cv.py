@@ -29,7 +29,8 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
-from terrain.errors import ConfigError, config_integer, first_items, listed
+from terrain.errors import (ConfigError, ShapeError, config_integer, first_items,
+                            is_integer, listed)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -54,7 +55,14 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
         ``(n_windows,)`` new groups: ``<run>@block<k>`` for the split classes.
     split_classes : list of str
         Classes that were split.
+
+    Raises
+    ------
+    ConfigError
+        ``n_blocks`` not an integer >= 2 (0 reached NumPy's bare "number sections must be
+        larger than 0"; 1 or ``True`` left the class one block, never trained on when tested).
     """
+    config_integer("n_blocks", n_blocks, 2)
     groups = groups.astype(object).copy()
     split = []
     for c in np.unique(labels):
@@ -127,6 +135,11 @@ def grouped_units(ws, n_blocks: int) -> tuple:
         Classes that were cut into blocks.
     n_dropped : int
         Windows dropped for straddling a block boundary.
+
+    Raises
+    ------
+    ConfigError
+        ``n_blocks`` not an integer >= 2 (:func:`split_single_run_classes`).
     """
     labels = ws.labels.astype(str)
     groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
@@ -280,11 +293,24 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     Raises
     ------
     ConfigError
-        Unknown protocol, more folds than groups, every class with fewer windows
+        ``seed`` (``grouped``, ``paper``) not an integer in [0, 2**32 - 1], ``n_splits``
+        (``grouped``, ``paper``) not an integer,
+        unknown protocol, more folds than groups, every class with fewer windows
         (``grouped``) or 5 s partitions (``paper``) than folds, which the stratified
         splitters refuse (``grouped``, ``paper``), a ``grouped`` split that leaves a fold
         without a test unit (few runs), or ``loro`` over fewer than 2 runs.
+    ShapeError
+        ``labels`` and ``groups`` not of one length.
     """
+    if len(labels) != len(groups):     # scikit-learn's "inconsistent numbers of samples"
+        raise ShapeError(f"iter_splits: labels ({len(labels)}) and groups ({len(groups)}) "
+                         "must hold one entry per window")
+    if protocol in ("grouped", "paper"):
+        # NumPy's bare "Seed must be between 0 and 2**32 - 1" (grouped), or a seed taken
+        # modulo 2**32 without a word (paper: -1 was 20, 2**32 the published split)
+        config_integer("seed", seed, 0, 2 ** 32 - 1)
+        if not is_integer(n_splits):   # scikit-learn's "must be of Integral type"
+            raise ConfigError(f"n_splits must be an integer, got {n_splits!r}")
     n_groups = len(np.unique(groups))
     if protocol in ("grouped", "paper") and not 2 <= n_splits <= n_groups:
         units = ("runs, or blocks of a single-run class" if protocol == "grouped"
