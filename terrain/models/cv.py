@@ -29,8 +29,8 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
-from terrain.errors import (ConfigError, ShapeError, config_integer, first_items,
-                            is_integer, listed)
+from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_integer,
+                            first_items, is_integer, listed)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -442,8 +442,17 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
         ``n_splits`` not an integer >= 2, fewer runs than ``n_splits`` (the message names
         the runs, the first three and a count), or ``labels`` whose every class has fewer
         windows than ``n_splits``.
+    NonFiniteInputError
+        A run in ``groups`` is missing (NaN or None); the message names the first window.
     """
     config_integer(setting, n_splits, 2)
+    if groups is not None:
+        # every NaN is a new object: a set counted one run per missing window
+        missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
+        if missing.size:
+            raise NonFiniteInputError(f"{purpose}: groups holds {missing.size} missing run(s) "
+                                      f"(NaN or None), the first at index {missing[0]}: every "
+                                      "window needs its run")
     runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
     if len(runs) < n_splits:
         given = first_items(runs, word="run") if runs else "no groups given"
@@ -498,6 +507,8 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
         Fewer runs than ``n_splits``, ``n_splits`` not an integer >= 2 or every class with
         fewer windows than ``n_splits`` (:func:`require_runs`), or no split that keeps a
         training run of every class (the message names the classes held out whole).
+    NonFiniteInputError
+        A missing run (:func:`require_runs`).
     """
     require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
     classes, y_idx = np.unique(np.asarray(labels), return_inverse=True)

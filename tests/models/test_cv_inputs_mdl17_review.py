@@ -63,3 +63,22 @@ def test_grouped_units_refuses_the_blocks_too():
         t_end_s = t_start_s + 1.0
     with pytest.raises(ConfigError, match="n_blocks"):
         grouped_units(_Windows(), 0)
+
+
+@pytest.mark.parametrize("missing", [np.nan, None])
+def test_an_inner_split_refuses_missing_runs_by_name(missing):
+    # every NaN run is a new object, so a set of them counted one run per window: 12 "runs"
+    # passed the run count and reached scikit-learn's bare "Cannot have number of splits
+    # n_splits=2 greater than the number of groups: 1" (None: "'<' not supported")
+    from terrain.errors import NonFiniteInputError
+    from terrain.models.cv import class_keeping_split
+
+    labels = np.array(["A", "B"] * 6)
+    groups = np.array([f"r{i}" for i in range(12)], dtype=object)
+    groups[[3, 7]] = missing
+    with pytest.raises(NonFiniteInputError, match="groups.*index 3"):
+        class_keeping_split(labels, groups, 2, 0, "early stopping", "validation_splits",
+                            "early_stopping=False")
+    with pytest.raises(NonFiniteInputError, match="groups"):
+        class_keeping_split(labels, np.full(12, np.nan), 2, 0, "early stopping",
+                            "validation_splits", "early_stopping=False")
