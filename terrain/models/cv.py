@@ -505,12 +505,15 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
     ------
     ConfigError
         Fewer runs than ``n_splits``, ``n_splits`` not an integer >= 2 or every class with
-        fewer windows than ``n_splits`` (:func:`require_runs`), or no split that keeps a
-        training run of every class (the message names the classes held out whole).
+        fewer windows than ``n_splits`` (:func:`require_runs`), ``random_state`` not an
+        integer in [0, 2**32 - 1], or no split that keeps a training run of every class (the
+        message names the classes held out whole).
     NonFiniteInputError
         A missing run (:func:`require_runs`).
     """
     require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
+    # (NumPy's bare "Seed must be between 0 and 2**32 - 1" otherwise)
+    config_integer("random_state", random_state, 0, 2 ** 32 - 1)
     classes, y_idx = np.unique(np.asarray(labels), return_inverse=True)
     inner = StratifiedGroupKFold(n_splits, shuffle=True, random_state=random_state)
     lost = set()

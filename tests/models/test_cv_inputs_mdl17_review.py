@@ -82,3 +82,15 @@ def test_an_inner_split_refuses_missing_runs_by_name(missing):
     with pytest.raises(NonFiniteInputError, match="groups"):
         class_keeping_split(labels, np.full(12, np.nan), 2, 0, "early stopping",
                             "validation_splits", "early_stopping=False")
+
+
+@pytest.mark.parametrize("seed", [-1, 2 ** 32, 0.5, True])
+def test_an_inner_split_refuses_a_seed_numpy_refuses_by_name(seed):
+    # the ensemble's random_state reached NumPy's bare "Seed must be between 0 and 2**32 - 1"
+    from terrain.models.cv import class_keeping_split
+
+    labels = np.array(["A", "B"] * 6)
+    groups = np.array([f"r{i}" for i in range(12)])
+    with pytest.raises(ConfigError, match="random_state"):
+        class_keeping_split(labels, groups, 2, seed, "choosing the ensemble weights",
+                            "inner_splits", "fixed weights")
