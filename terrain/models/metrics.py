@@ -11,6 +11,17 @@ from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_s
 from terrain.errors import ShapeError
 
 
+def _check_windows(owner: str, **columns) -> None:
+    """Refuse per-window sequences of other lengths, or of no window (ShapeError)."""
+    lengths = {name: len(values) for name, values in columns.items()}
+    names = " and ".join(", ".join(lengths).rsplit(", ", 1))
+    if len(set(lengths.values())) > 1:
+        raise ShapeError(f"{owner}: {names} must hold one entry per window, got lengths "
+                         f"{tuple(lengths.values())}")
+    if not next(iter(lengths.values())):
+        raise ShapeError(f"{owner}: {names} hold no window")
+
+
 def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
                    classes: Sequence[str]) -> dict[str, float]:
     """Window-level metrics.
@@ -32,7 +43,14 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
         scikit-learn's ``f1_score(average="macro")``: a class predicted in a fold whose
         truth lacks it counts with F1 = 0) and ``recall_<CLASS>`` for each class present in
         ``y_true``.
+
+    Raises
+    ------
+    ShapeError
+        ``y_true`` and ``y_pred`` of other lengths, or empty (scikit-learn's bare
+        "inconsistent numbers of samples" / "Found empty input array").
     """
+    _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
     present = [c for c in classes if (y_true == c).any()]
     scored = [c for c in classes if (y_true == c).any() or (y_pred == c).any()]
@@ -94,12 +112,9 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
     ------
     ShapeError
         The three sequences not of one length (was pandas's bare "Length of values does
-        not match length of index").
+        not match length of index"), or empty (was NaN).
     """
-    lengths = (len(y_true), len(y_pred), len(groups))
-    if len(set(lengths)) > 1:
-        raise ShapeError(f"run_majority_accuracy: y_true, y_pred and groups must hold one "
-                         f"entry per window, got lengths {lengths}")
+    _check_windows("run_majority_accuracy", y_true=y_true, y_pred=y_pred, groups=groups)
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
     truth = truth[~truth.index.duplicated()]
     vote = majority_vote(y_pred, groups)
@@ -123,7 +138,14 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
     -------
     pandas.DataFrame
         ``(n_classes, n_classes)`` window counts, index ``true``, columns ``predicted``.
+
+    Raises
+    ------
+    ShapeError
+        ``y_true`` and ``y_pred`` of other lengths, or empty (scikit-learn's bare
+        "inconsistent numbers of samples" / "Found empty input array").
     """
+    _check_windows("confusion", y_true=y_true, y_pred=y_pred)
     cm = confusion_matrix(y_true, y_pred, labels=list(classes))
     return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
                         columns=pd.Index(classes, name="predicted"))
