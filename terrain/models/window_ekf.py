@@ -19,6 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from features.ekf_signals import EKF_CHANNELS, window_ekf_channels
 from features.windows import HUSKY_TRACK_M
+from terrain.errors import EstimationError, refuse_booleans
 from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.models.cv import fit_with_groups
 
@@ -82,10 +83,14 @@ class WindowEKFClassifier(ClassifierMixin, BaseEstimator):
 
         Raises
         ------
+        terrain.errors.EstimationError
+            ``X`` holds booleans (a mask handed over for the signals: cast here, they would
+            reach the filter and the wrapped model as 0.0 and 1.0).
         terrain.errors.DataFormatError, terrain.errors.ShapeError,
         terrain.errors.NonFiniteInputError
             See :func:`features.ekf_signals.window_ekf_channels`.
         """
+        refuse_booleans(EstimationError, type(self).__name__, X=X)
         X = np.asarray(X, dtype=float)
         ekf = window_ekf_channels(X, self.channels, self.rate_hz,
                                   wheel_rate_hz=self.wheel_rate_hz,
