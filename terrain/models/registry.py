@@ -28,7 +28,7 @@ import numpy as np
 from features.ekf_signals import EKF_CHANNELS
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M
 from terrain.errors import (ConfigError, config_flags, config_integer, config_positive,
-                            duplicated)
+                            duplicated, is_integer)
 from terrain.models.cnn import RawCNNClassifier, SpectrogramCNNClassifier
 from terrain.models.ensemble import SoftVotingEnsemble
 from terrain.models.minirocket import make_minirocket, require_aeon
@@ -175,12 +175,12 @@ class ModelConfig:
             raise ConfigError(f"ensemble members name {duplicated(self.ensemble_members)} "
                               f"more than once, got {list(self.ensemble_members)}: name each "
                               "member once")
-        if isinstance(self.cnn_seeds, bool) or not (isinstance(self.cnn_seeds, int)
-                                                    and 1 <= self.cnn_seeds <= MAX_CNN_SEEDS):
+        # is_integer: NumPy's integers too (as config_integer takes max_epochs), no boolean
+        if not (is_integer(self.cnn_seeds) and 1 <= self.cnn_seeds <= MAX_CNN_SEEDS):
             raise ConfigError(f"cnn_seeds must be an integer in 1-{MAX_CNN_SEEDS}, got "
                               f"{self.cnn_seeds!r}")
-        if self.n_threads is not None and (isinstance(self.n_threads, bool) or not (
-                isinstance(self.n_threads, int) and 1 <= self.n_threads <= MAX_TORCH_THREADS)):
+        if self.n_threads is not None and not (
+                is_integer(self.n_threads) and 1 <= self.n_threads <= MAX_TORCH_THREADS):
             raise ConfigError(f"n_threads must be an integer in 1-{MAX_TORCH_THREADS} or "
                               f"None, got {self.n_threads!r}")
         if self.cnn_seeds > 1 and not cnn_kinds(self.kind, self.ensemble_members):
