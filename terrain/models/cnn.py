@@ -242,7 +242,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel.
         ValueError
-            ``sample_weight`` of another length than ``y``, negative, not finite, or all 0
+            ``sample_weight`` not numbers (booleans, text), of another length than ``y``,
+            negative, not finite, or all 0
             (on the training runs: the early-stopping runs are never drawn);
             windows not finite, booleans, not 2-D or 3-D, or empty (0 channels or 0
             samples). A refused fit leaves the model as it was (unfitted, or its previous
@@ -293,6 +294,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Z = self._standardise(Z)
         y_idx = y_idx.astype(np.int64)
         if sample_weight is not None:
+            kind = np.asarray(sample_weight).dtype.kind
+            if kind not in "iuf":   # .astype(float) read a mask as 1 / 0, the text "2" as 2
+                raise ValueError(f"sample_weight must hold numbers, got dtype "
+                                 f"{np.asarray(sample_weight).dtype} (booleans: a mask?)")
             sample_weight = column_or_1d(sample_weight).astype(float)
             check_consistent_length(y_idx, sample_weight)
             if not (np.isfinite(sample_weight).all() and (sample_weight >= 0).all()

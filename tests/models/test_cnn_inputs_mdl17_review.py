@@ -34,3 +34,19 @@ def test_early_stopping_patience_not_a_whole_number_of_epochs_is_refused(patienc
 def test_a_patience_is_not_checked_without_early_stopping():
     X, y, _ = _runs()
     assert RawCNNClassifier(**TINY, patience=0).fit(X, y).n_epochs_ == 4
+
+
+@pytest.mark.parametrize("weights", [np.array([True, False] * 8), [True, False] * 8,
+                                     np.array(["1.0"] * 16)])
+def test_sample_weights_of_booleans_or_text_are_refused_by_name(weights):
+    # .astype(float) read a mask as weights 1 and 0 (half the windows never drawn) and text
+    # "1.0" as the number 1
+    X, y, _ = _runs()
+    with pytest.raises(ValueError, match="sample_weight"):
+        RawCNNClassifier(**TINY).fit(X, y, sample_weight=weights)
+
+
+def test_numeric_sample_weights_are_taken():
+    X, y, _ = _runs()
+    weights = np.arange(1, 17)                          # integers: numbers
+    assert RawCNNClassifier(**TINY).fit(X, y, sample_weight=weights).n_epochs_ == 4
