@@ -695,13 +695,28 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     ------
     ConfigError
         Unknown ``protocol``, or folds :func:`iter_splits` refuses.
+    ShapeError
+        ``X``, ``groups``, ``run_ids``, ``t_start_s`` or ``t_end_s`` not one entry per label.
+    NonFiniteInputError
+        A label is missing (NaN or None; it would be scored as a class of its own).
     RuntimeError
         If a split unit lands on both sides of a split (an internal invariant; it signals a
         bug, not bad input).
     """
     from joblib import Parallel, delayed
 
-    y = np.asarray(y).astype(str)
+    y = np.asarray(y)
+    missing = np.flatnonzero(pd.isna(y.astype(object)))
+    if missing.size:     # astype(str) made them the class "nan" ("None")
+        raise NonFiniteInputError(f"cross_validate: y holds {missing.size} missing label(s) (NaN "
+                                  f"or None), the first at index {missing[0]}")
+    for name, values in (("X", X), ("groups", groups), ("run_ids", run_ids),
+                         ("t_start_s", t_start_s), ("t_end_s", t_end_s)):
+        n = values.shape[0] if hasattr(values, "shape") else len(values)   # (sparse X)
+        if n != len(y):
+            raise ShapeError(f"cross_validate: {name} holds {n} entries for {len(y)} labels "
+                             "(y): one per window")
+    y = y.astype(str)
     classes = sorted(np.unique(y))
     tasks = []
     for seed in seeds:
