@@ -30,7 +30,7 @@ from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_integer,
-                            first_items, is_integer, listed)
+                            duplicated, first_items, is_integer, listed)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -694,7 +694,8 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     Raises
     ------
     ConfigError
-        Unknown ``protocol``, or folds :func:`iter_splits` refuses.
+        Unknown ``protocol``, or folds :func:`iter_splits` refuses; ``seeds`` empty, repeated
+        or not integers in [0, 2**32 - 1]; ``time_inference`` not an integer >= 0.
     ShapeError
         ``X``, ``groups``, ``run_ids``, ``t_start_s`` or ``t_end_s`` not one entry per label.
     NonFiniteInputError
@@ -717,6 +718,15 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
             raise ShapeError(f"cross_validate: {name} holds {n} entries for {len(y)} labels "
                              "(y): one per window")
     y = y.astype(str)
+    # no seed reached pandas' "No objects to concatenate"; a repeated one counted one split
+    # twice; a negative time_inference gave a column of NaN, 2.5 a bare TypeError
+    seeds = tuple(seeds)
+    if not seeds or duplicated(seeds):
+        raise ConfigError(f"cross_validate: seeds must be one or more distinct integers, got "
+                          f"{list(seeds)}")
+    for seed in seeds:
+        config_integer("seeds", seed, 0, 2 ** 32 - 1)
+    config_integer("time_inference", time_inference, 0)
     classes = sorted(np.unique(y))
     tasks = []
     for seed in seeds:

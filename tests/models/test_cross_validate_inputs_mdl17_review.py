@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from sklearn.linear_model import LogisticRegression
 
-from terrain.errors import NonFiniteInputError, ShapeError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.models.cv import cross_validate
 
 N = 40
@@ -46,6 +46,20 @@ def test_a_per_window_input_of_another_length_is_a_shape_error_naming_it(field):
         _cv(*args.values())
 
 
+@pytest.mark.parametrize("seeds", [(), (0, 0), (-1,), (1.5,), (True,)])
+def test_seeds_that_are_not_distinct_integers_are_refused(seeds):
+    # () reached pandas' "No objects to concatenate"; (0, 0) counted one split twice
+    with pytest.raises(ConfigError, match="seeds"):
+        _cv(*_case(), seeds=seeds)
+
+
+@pytest.mark.parametrize("n", [-1, 2.5, True])
+def test_time_inference_not_a_count_is_refused(n):
+    # -1 gave a column of NaN (the median of no timing), 2.5 a bare TypeError, True timed 1
+    with pytest.raises(ConfigError, match="time_inference"):
+        _cv(*_case(), time_inference=n)
+
+
 def test_valid_inputs_still_run():
-    report = _cv(*_case(), seeds=(0, 1), time_inference=2)
+    report = _cv(*_case(), seeds=(0, np.int64(1)), time_inference=2)
     assert len(report.folds) == 10 and "infer_ms_per_window" in report.folds
