@@ -19,7 +19,8 @@ from features.ekf_signals import EKF_CHANNELS
 from features.transformers import WindowFeatures
 from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
                               runs_track_m)
-from terrain.errors import ConfigError, config_integer, config_positive, duplicated, is_integer
+from terrain.errors import (ConfigError, config_flags, config_integer, config_positive,
+                            duplicated, is_integer)
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
                                cross_validate, fit_with_groups, grouped_units, training_units)
@@ -94,8 +95,9 @@ class ExperimentConfig:
     Raises
     ------
     ConfigError
-        Unknown model, dataset, protocol or signal, ``search`` with a model other than
-        the SVM or with ``window_ekf`` or ``run_balanced``, ``window_ekf`` with signals
+        Unknown model, dataset, protocol or signal, ``search`` not True or False or with a
+        model other than the SVM or with ``window_ekf`` or ``run_balanced``, ``window_ekf``
+        with signals
         lacking ``vel_l``, ``vel_r`` or ``wz`` or holding an EKF channel, a ``train_hop_s``
         that is not a finite positive number or comes with ``paper``, ``paper`` with a
         ``window_s`` or ``hop_s`` other than its own (or the defaults), no seed, one
@@ -128,6 +130,8 @@ class ExperimentConfig:
     def __post_init__(self) -> None:
         if self.model not in MODELS:
             raise ConfigError(f"unknown model {self.model!r}; valid: {list(MODELS)}")
+        # a text such as "no" from a config file was truthy and ran the nested search
+        config_flags("ExperimentConfig", search=self.search)
         if self.search and (self.model != "svm" or self.window_ekf or self.run_balanced):
             raise ConfigError("--search tunes the SVM on raw-signal features only; drop it "
                               "for other models and with --window-ekf or --run-balanced")

@@ -1,0 +1,21 @@
+"""ExperimentConfig's switches and seeds refused by name (review mdl17)."""
+
+from __future__ import annotations
+
+import pytest
+
+from terrain.errors import ConfigError
+from terrain.models.experiment import ExperimentConfig
+
+
+@pytest.mark.parametrize("value", ["no", "false", 0, 1, None])
+def test_search_must_be_true_or_false(value):
+    # a text such as "no" from a config file was truthy: the nested grid search ran (and with
+    # another model the error said "--search tunes the SVM" of a search never asked for)
+    with pytest.raises(ConfigError, match="search must be True or False"):
+        ExperimentConfig(search=value)
+
+
+def test_search_true_and_false_are_kept():
+    assert ExperimentConfig(search=True).search is True
+    assert ExperimentConfig(model="cnn", search=False).search is False
