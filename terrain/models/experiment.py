@@ -161,6 +161,10 @@ class ExperimentConfig:
                               f"({PAPER_WINDOW['window_s']:g} s every "
                               f"{PAPER_WINDOW['hop_s']:g} s): drop --window-s / --hop-s "
                               f"(got {self.window_s:g} s, hop {self.hop_s})")
+        if isinstance(self.seeds, (str, bytes)) or not hasattr(self.seeds, "__iter__"):
+            # one seed given bare reached Python's "'int' object is not iterable"
+            raise ConfigError(f"seeds must be a sequence of integers in 0-{MAX_SEED}, e.g. "
+                              f"(0,), got {type(self.seeds).__name__} {self.seeds!r:.60}")
         bad_seeds = [s for s in self.seeds if not is_integer(s) or not 0 <= s <= MAX_SEED]
         if not self.seeds or bad_seeds:
             raise ConfigError(f"seeds must be one or more integers in 0-{MAX_SEED} (NumPy's "

@@ -19,3 +19,10 @@ def test_search_must_be_true_or_false(value):
 def test_search_true_and_false_are_kept():
     assert ExperimentConfig(search=True).search is True
     assert ExperimentConfig(model="cnn", search=False).search is False
+
+
+@pytest.mark.parametrize("seeds", [3, 2.5, None])
+def test_seeds_not_a_sequence_are_a_config_error(seeds):
+    # a single seed given bare reached Python's "TypeError: 'int' object is not iterable"
+    with pytest.raises(ConfigError, match="seeds"):
+        ExperimentConfig(seeds=seeds)
