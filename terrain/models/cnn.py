@@ -240,7 +240,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             training run of every class;
             (spectrogram CNN) ``augment_noise_std``
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
-            ``inf``) per channel.
+            ``inf``) per channel (a scalar, booleans or text included).
         ValueError
             ``sample_weight`` not numbers (booleans, text), of another length than ``y``,
             negative, not finite, or all 0
@@ -644,10 +644,13 @@ class SpectrogramCNNClassifier(_WindowCNN):
         self.freqs_hz_ = np.fft.rfftfreq(seg, 1.0 / self.rate_hz)
         if self.band_limits_hz is None:
             return None
-        limits = np.asarray(self.band_limits_hz, dtype=float)
+        given = np.asarray(self.band_limits_hz)
+        if given.dtype.kind not in "iuf":   # (True,) and ("3",) were limits of 1 and 3 Hz
+            raise ConfigError(f"band_limits_hz must hold numbers (Hz), got dtype {given.dtype}")
+        limits = given.astype(float)
         if limits.shape != (shape[1],):
-            raise ConfigError(f"band_limits_hz has {limits.size} entries for {shape[1]} "
-                              "channels")
+            raise ConfigError(f"band_limits_hz must give one frequency per channel, a "
+                              f"sequence of {shape[1]}; got shape {limits.shape}")
         if not (limits >= 0).all():     # NaN or < 0: no bin is kept, the channel drops out
             raise ConfigError(f"band_limits_hz must be frequencies >= 0 Hz (inf: no limit), "
                               f"got {tuple(limits.tolist())}")

@@ -50,3 +50,18 @@ def test_numeric_sample_weights_are_taken():
     X, y, _ = _runs()
     weights = np.arange(1, 17)                          # integers: numbers
     assert RawCNNClassifier(**TINY).fit(X, y, sample_weight=weights).n_epochs_ == 4
+
+
+@pytest.mark.parametrize("limits, said", [(3.25, "one frequency per channel"),
+                                          ((True,), "numbers"), (("3",), "numbers")])
+def test_band_limits_that_are_not_one_number_per_channel_are_refused_by_what_is_wrong(
+        limits, said):
+    # a bare 3.25 for one channel was refused as "band_limits_hz has 1 entries for 1
+    # channels"; (True,) and ("3",) were read as limits of 1 Hz and 3 Hz
+    from terrain.models.cnn import SpectrogramCNNClassifier
+
+    X, y, _ = _runs()
+    model = SpectrogramCNNClassifier(**TINY, segment_s=0.1, hop_s=0.05,
+                                     band_limits_hz=limits)
+    with pytest.raises(ConfigError, match=f"band_limits_hz.*{said}"):
+        model.fit(X[:, :1], y)
