@@ -301,10 +301,18 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
         without a test unit (few runs), or ``loro`` over fewer than 2 runs.
     ShapeError
         ``labels`` and ``groups`` not of one length.
+    NonFiniteInputError
+        A missing run (NaN or None) in ``groups``: ``grouped`` made one split unit of every
+        such window (NumPy's ``unique`` counts NaN once).
     """
     if len(labels) != len(groups):     # scikit-learn's "inconsistent numbers of samples"
         raise ShapeError(f"iter_splits: labels ({len(labels)}) and groups ({len(groups)}) "
                          "must hold one entry per window")
+    missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
+    if missing.size:
+        raise NonFiniteInputError(f"iter_splits: groups holds {missing.size} missing run(s) "
+                                  f"(NaN or None), the first at index {missing[0]}: every "
+                                  "window needs its split unit")
     if protocol in ("grouped", "paper"):
         # NumPy's bare "Seed must be between 0 and 2**32 - 1" (grouped), or a seed taken
         # modulo 2**32 without a word (paper: -1 was 20, 2**32 the published split)

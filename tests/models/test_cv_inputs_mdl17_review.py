@@ -94,3 +94,19 @@ def test_an_inner_split_refuses_a_seed_numpy_refuses_by_name(seed):
     with pytest.raises(ConfigError, match="random_state"):
         class_keeping_split(labels, groups, 2, seed, "choosing the ensemble weights",
                             "inner_splits", "fixed weights")
+
+
+@pytest.mark.parametrize("protocol", ["grouped", "loro", "paper"])
+@pytest.mark.parametrize("missing", [np.nan, None])
+def test_a_missing_run_is_refused_by_every_protocol(protocol, missing):
+    # grouped merged every window of a NaN run into one split unit without a word (NumPy's
+    # unique counts NaN once); loro: "Input groups contains NaN", paper: KeyError nan; a None
+    # run: TypeError "'<' not supported between instances of 'str' and 'NoneType'"
+    from terrain.errors import NonFiniteInputError
+
+    groups = np.array([f"r{i % 5}" for i in range(20)], dtype=object)
+    if missing is not None:
+        groups = np.array([float(i % 5) for i in range(20)])
+    groups[[2, 3, 7]] = missing
+    with pytest.raises(NonFiniteInputError, match="groups holds 3 missing.*index 2"):
+        list(iter_splits(protocol, LABELS, groups, 0, 2))
