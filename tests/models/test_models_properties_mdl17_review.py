@@ -347,3 +347,35 @@ def test_numpy_softmax_is_the_logistic_regressions_probabilities(seed, k):
     Zt = rng.normal(size=(7, 4)) * 5
     np.testing.assert_allclose(softmax_logistic_proba(Zt.copy(), logreg),
                                logreg.predict_proba(Zt), rtol=0, atol=1e-12)
+
+
+@pytest.fixture(scope="module")
+def registry_models():
+    """The SVM and the equal-weight SVM + spectrogram-CNN vote of the registry, fitted."""
+    from terrain.models.registry import ModelConfig, make_model
+
+    X, y, _ = _tone_windows(n_per_class=6, n_samples=40)
+    models = []
+    for kind in ("svm", "ensemble"):
+        config = ModelConfig(kind=kind, max_epochs=1, n_threads=1)
+        model = make_model(config, ("ax", "wz"), 100.0, "borealtc", random_state=3)
+        models.append(model.fit(X, y))
+    return X, models
+
+
+@settings(max_examples=15, deadline=None,
+          suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.data())
+def test_registry_models_round_trip_and_do_not_depend_on_the_batch(registry_models, data):
+    X, models = registry_models
+    model = models[data.draw(st.integers(0, 1))]
+    rows = np.asarray(data.draw(st.lists(st.integers(0, len(X) - 1), min_size=1,
+                                         max_size=8)))
+    proba = model.predict_proba(X[rows])
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, atol=1e-6)
+    order = np.asarray(data.draw(st.permutations(range(len(rows)))))
+    np.testing.assert_allclose(model.predict_proba(X[rows][order]), proba[order], atol=1e-9)
+    np.testing.assert_allclose(model.predict_proba(X[rows[:1]]), proba[:1], atol=1e-9)
+    again = pickle.loads(pickle.dumps(model))
+    np.testing.assert_array_equal(again.predict_proba(X[rows]), proba)
+    np.testing.assert_array_equal(again.predict(X[rows]), model.predict(X[rows]))
