@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_score
 
-from terrain.errors import ShapeError
+from terrain.errors import NonFiniteInputError, ShapeError
 
 
 def _check_windows(owner: str, **columns) -> None:
@@ -82,7 +82,17 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
     -------
     pandas.Series
         Group -> voted label, indexed by the sorted group ids.
+
+    Raises
+    ------
+    NonFiniteInputError
+        A group is missing (NaN or None: pandas' ``groupby`` would leave its windows out of
+        the vote, and out of :func:`run_majority_accuracy`'s count).
     """
+    missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
+    if missing.size:
+        raise NonFiniteInputError(f"majority_vote: groups holds {missing.size} missing run(s) "
+                                  f"(NaN or None), the first at index {missing[0]}")
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
     counts = frame.groupby(["g", "p"]).size().reset_index(name="n")
     counts = counts.sort_values(["g", "n", "p"], ascending=[True, False, True])
@@ -113,6 +123,8 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
     ShapeError
         The three sequences not of one length (was pandas's bare "Length of values does
         not match length of index"), or empty (was NaN).
+    NonFiniteInputError
+        A missing group (:func:`majority_vote`).
     """
     _check_windows("run_majority_accuracy", y_true=y_true, y_pred=y_pred, groups=groups)
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))

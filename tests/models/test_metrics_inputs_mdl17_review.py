@@ -26,3 +26,17 @@ def test_no_window_is_a_shape_error(metric):
 def test_run_majority_accuracy_of_no_window_is_a_shape_error_not_nan():
     with pytest.raises(ShapeError, match="no window"):
         run_majority_accuracy([], [], [])
+
+
+@pytest.mark.parametrize("missing", [None, float("nan")])
+def test_a_window_without_its_run_is_refused_not_left_out_of_the_vote(missing):
+    # pandas' groupby drops a NaN/None key: the window's run was left out of the vote and of
+    # the count (run accuracy 1.0 although that run was voted A against its truth B)
+    from terrain.errors import NonFiniteInputError
+    from terrain.models.metrics import majority_vote
+
+    groups = [missing, "g", "g"]
+    with pytest.raises(NonFiniteInputError, match="groups.*index 0"):
+        majority_vote(["A", "B", "B"], groups)
+    with pytest.raises(NonFiniteInputError, match="groups.*index 0"):
+        run_majority_accuracy(["B", "B", "B"], ["A", "B", "B"], groups)
