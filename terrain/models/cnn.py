@@ -43,7 +43,8 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
-from terrain.errors import ConfigError, ShapeError, config_integer, config_positive
+from terrain.errors import (ConfigError, ShapeError, config_integer, config_numbers,
+                            config_positive)
 from terrain.models.cv import class_keeping_split, restored_on_failure
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -232,8 +233,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``max_epochs`` or ``width`` not an integer >= 1, ``n_threads`` neither ``None``
-            nor one, ``random_state`` not an integer in [0, 2**32 - 1];
+            ``max_epochs``, ``width`` or ``batch_size`` not an integer >= 1, ``lr`` or
+            ``weight_decay`` not a finite number >= 0, ``dropout`` not a
+            number in [0, 1), ``n_threads`` neither ``None`` nor one, ``random_state`` not an
+            integer in [0, 2**32 - 1];
             ``early_stopping=True`` without ``groups``, with ``patience`` not an integer >= 1,
             with ``validation_splits`` not an integer >= 2, above the number of runs or
             above the windows of every class, or with no validation split that leaves a
@@ -261,6 +264,14 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
 
         config_integer("max_epochs", self.max_epochs, 1)
         config_integer("width", self.width, 1)
+        # torch's and skorch's own refusals came mid-fit (dropout NaN: a RuntimeError);
+        # lr=True was taken as a learning rate of 1 (lr=0 keeps the initial weights)
+        owner = type(self).__name__
+        config_positive(owner, allow_zero=True, lr=self.lr, weight_decay=self.weight_decay)
+        config_integer("batch_size", self.batch_size, 1)
+        config_numbers(owner, dropout=self.dropout)
+        if not 0.0 <= self.dropout < 1.0:
+            raise ConfigError(f"{owner}.dropout must be in [0, 1), got {self.dropout!r}")
         # torch.Generator.manual_seed takes Python integers only; numpy's seeds end at 2**32
         config_integer("random_state", self.random_state, 0, 2 ** 32 - 1)
         seed = int(self.random_state)

@@ -65,3 +65,16 @@ def test_band_limits_that_are_not_one_number_per_channel_are_refused_by_what_is_
                                      band_limits_hz=limits)
     with pytest.raises(ConfigError, match=f"band_limits_hz.*{said}"):
         model.fit(X[:, :1], y)
+
+
+@pytest.mark.parametrize("setting, value", [
+    ("lr", -1e-3), ("lr", float("nan")), ("lr", True), ("lr", "3e-3"),
+    ("weight_decay", -0.1), ("weight_decay", float("inf")),
+    ("batch_size", 0), ("batch_size", 2.5), ("batch_size", True),
+    ("dropout", 1.0), ("dropout", -0.1), ("dropout", float("nan"))])
+def test_training_settings_are_refused_by_name_before_training(setting, value):
+    # torch's and skorch's own errors came mid-fit, after the spectra and the scaling, in
+    # their words (dropout NaN: a RuntimeError); lr=True was taken as a learning rate of 1
+    X, y, _ = _runs()
+    with pytest.raises(ConfigError, match=setting):
+        RawCNNClassifier(**{**TINY, setting: value}).fit(X, y)
