@@ -95,7 +95,7 @@ class ExperimentConfig:
     Raises
     ------
     ConfigError
-        Unknown model, dataset, protocol or signal, ``search`` not True or False or with a
+        Unknown model, dataset, protocol or signal, a signal named twice, ``search`` not True or False or with a
         model other than the SVM or with ``window_ekf`` or ``run_balanced``, ``window_ekf``
         with signals
         lacking ``vel_l``, ``vel_r`` or ``wz`` or holding an EKF channel, a ``train_hop_s``
@@ -141,6 +141,11 @@ class ExperimentConfig:
         if self.protocol not in PROTOCOLS:
             raise ConfigError(f"unknown protocol {self.protocol!r}; valid: {list(PROTOCOLS)}")
         channels = resolve_signals(self.signals)
+        twice = [] if isinstance(self.signals, str) else duplicated(self.signals)
+        if twice:   # one selection logged as 'imu,imu' and named '...-imu+imu'
+            raise ConfigError(f"signals {twice} given twice: each signal set or channel once "
+                              f"(the signals are the MLflow param 'signals' and part of the "
+                              f"run name)")
         if self.window_ekf:
             missing = [c for c in ("vel_l", "vel_r", "wz") if c not in channels]
             if missing or set(channels) & set(EKF_CHANNELS):

@@ -26,3 +26,17 @@ def test_seeds_not_a_sequence_are_a_config_error(seeds):
     # a single seed given bare reached Python's "TypeError: 'int' object is not iterable"
     with pytest.raises(ConfigError, match="seeds"):
         ExperimentConfig(seeds=seeds)
+
+
+@pytest.mark.parametrize("signals", [("imu", "imu"), ("wx", "wheels", "wx")])
+def test_a_signal_named_twice_is_refused(signals):
+    # the channels were de-duplicated, but the MLflow param read 'imu,imu' and the run
+    # name '...-imu+imu': one selection logged under several names
+    with pytest.raises(ConfigError, match=r"signals \['(imu|wx)'\] given twice"):
+        ExperimentConfig(signals=signals)
+
+
+def test_a_channel_inside_a_set_is_no_repeat():
+    # a set and one of its channels name the selection differently: kept, as documented
+    # (resolve_signals removes the overlap)
+    assert ExperimentConfig(signals=("imu", "wx")).signals == ("imu", "wx")

@@ -105,6 +105,9 @@ def test_a_seed_given_twice_is_a_usage_error(argv, capsys, tmp_path, monkeypatch
     (["control-grid", "--vehicles", "husky", "husky", "--out", "g"], "vehicles: ['husky']"),
     (["control-grid", "--ki-grid", "0", "0", "--out", "g"], "--ki-grid: [0.0] given"),
     (["slip-fit", "--scenarios", "orchard", "orchard", "--out", "s"], "scenarios: ['orchard']"),
+    # one selection logged as the param 'imu,imu' and a run named 'svm-borealtc-imu+imu'
+    (["cv", "--signals", "imu", "imu"], "signals ['imu'] given twice"),
+    (["train", "--signals", "wheels", "imu", "wheels"], "signals ['wheels'] given twice"),
 ])
 def test_a_value_repeated_on_a_grid_axis_is_refused_before_any_work(argv, message, capsys,
                                                                     tmp_path, monkeypatch):
