@@ -1,0 +1,295 @@
+"""Property-based tests (hypothesis) of the streaming service, second pass: two streams on
+their own rates, a time shift of every clock, the slip targets of the table, the ``stale``
+and ``low_confidence`` rules as documented, typed errors of bad pushes, bounded memory.
+
+A three-class stand-in model (softmax of the windows' mean ``vel_l``, mean ``vel_r`` and 0)
+on an 8 Hz clock (a period of 1/8 s, so stamps on multiples of 1/64 s and shifts by whole
+seconds are exact in float64) keeps every example fast; no fitted model is needed.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from features.windows import WindowConfig
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError
+from terrain.serving import (SmoothingConfig, StreamConfig, StreamModel, StreamService,
+                             TableTargets)
+from terrain.serving.intake import MAX_EVENTS
+
+FAST = settings(max_examples=40, deadline=None,
+                suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+CLASSES = ("ASPHALT", "SNOW", "ICE")
+TWO = {"left": ("vel_l",), "right": ("vel_r",)}
+ONE = {"wheels": ("vel_l", "vel_r")}
+
+
+class _Softmax:
+    """Three-class stand-in: softmax of 3 x (mean vel_l, mean vel_r, 0) over the window."""
+
+    classes_ = np.array(CLASSES)
+
+    def predict_proba(self, X):
+        z = 3.0 * np.column_stack([X[:, 0].mean(axis=1), X[:, 1].mean(axis=1),
+                                   np.zeros(len(X))])
+        e = np.exp(z - z.max(axis=1, keepdims=True))
+        return e / e.sum(axis=1, keepdims=True)
+
+
+MODEL = StreamModel(_Softmax(), ("vel_l", "vel_r"), WindowConfig(window_s=1.0, rate_hz=8.0),
+                    CLASSES)
+
+
+def _service(streams=TWO, smoothing=SmoothingConfig(), offsets=None, min_confidence=0.5,
+             buffer_samples=4096):
+    return StreamService(MODEL, TableTargets(CLASSES),
+                         StreamConfig(hop_s=0.5, streams=streams, smoothing=smoothing,
+                                      clock_offsets_s=offsets or {},
+                                      min_confidence=min_confidence,
+                                      buffer_samples=buffer_samples))
+
+
+# stamps on multiples of 1/64 s (exact sums); steps of ~10 Hz and ~7 Hz with a rare dropout
+_STEP_L = st.sampled_from([6, 6, 7, 7, 7, 8]).map(lambda k: k / 64)
+_STEP_R = st.sampled_from([8, 9, 9, 10, 10, 11, 40]).map(lambda k: k / 64)
+_V = st.floats(-1.5, 1.5, allow_nan=False)
+
+
+@st.composite
+def _two_streams(draw, min_size=20, max_size=90):
+    """``[(stream, t_s, value), ...]`` in arrival (time) order, left before right at a tie,
+    plus the two streams' own arrays."""
+    out = {}
+    for name, step in (("left", _STEP_L), ("right", _STEP_R)):
+        n = draw(st.integers(min_size, max_size))
+        t = 100.0 + np.cumsum(draw(st.lists(step, min_size=n, max_size=n)))
+        v = np.array(draw(st.lists(_V, min_size=n, max_size=n)))
+        out[name] = (t, v)
+    events = sorted([(t, 0 if s == "left" else 1, s, i) for s, (ts, _) in out.items()
+                     for i, t in enumerate(ts.tolist())])
+    return [(s, i) for _, _, s, i in events], out
+
+
+def _runs(order):
+    """Consecutive samples of one stream in arrival order: ``[(stream, [i, ...]), ...]``."""
+    runs = []
+    for s, i in order:
+        if runs and runs[-1][0] == s:
+            runs[-1][1].append(i)
+        else:
+            runs.append((s, [i]))
+    return runs
+
+
+def _push_chunks(svc, streams, chunks, shift=0.0):
+    """Push ``[(stream, [i, ...]), ...]``; returns the decisions and, per decision, the
+    newest stamp pushed of each stream when it came (service clock)."""
+    out, newest, at = [], {s: -np.inf for s in streams}, []
+    for s, idx in chunks:
+        t, v = streams[s]
+        got = svc.push(s, t[idx] + shift, {MODEL.channels[s == "right"]: v[idx]})
+        newest[s] = float(t[idx][-1]) + shift
+        out += got
+        at += [dict(newest)] * len(got)
+    return out, at
+
+
+def _key(decisions, shift=0.0):
+    return [(d.t_s - shift, d.terrain, d.flags, round(d.confidence, 9),
+             tuple(np.round(d.proba, 9)), d.target_slip_traction, d.target_slip_braking,
+             d.target_slip_steady, d.window_age_s) for d in decisions]
+
+
+@st.composite
+def _chunked(draw, order):
+    """The runs of ``order`` cut into chunks of random sizes, the last sample of each run
+    alone (as :func:`terrain.serving.replay.interleave` gives them: a lagging stream is
+    judged stale from the first sample of the newest push)."""
+    chunks = []
+    for s, idx in _runs(order):
+        body, i = idx[:-1], 0
+        while i < len(body):
+            k = draw(st.integers(1, 12))
+            chunks.append((s, body[i:i + k]))
+            i += k
+        chunks.append((s, idx[-1:]))
+    return chunks
+
+
+# ---------------------------------------------------------------- chunking, two streams
+
+@FAST
+@given(data=st.data(), streams=_two_streams(),
+       smoothing=st.sampled_from([SmoothingConfig(), SmoothingConfig(dwell_s=None),
+                                  SmoothingConfig(hysteresis=0.2)]))
+def test_two_streams_decide_the_same_one_by_one_and_in_chunks(data, streams, smoothing):
+    """Two streams at their own rates, interleaved in time order: pushed sample by sample
+    or each run of one stream in chunks of any size (its last sample alone), the service
+    gives the same decisions, counts and holds."""
+    order, arrays = streams
+    one, chunked = _service(smoothing=smoothing), _service(smoothing=smoothing)
+    a, _ = _push_chunks(one, arrays, [(s, [i]) for s, i in order])
+    b, _ = _push_chunks(chunked, arrays, data.draw(_chunked(order)))
+    assert _key(a) == _key(b)
+    assert one.refused_samples == chunked.refused_samples
+    assert one.held_samples == chunked.held_samples
+
+
+# ---------------------------------------------------------------- time shift
+
+@FAST
+@given(streams=_two_streams(), shift=st.sampled_from([-64.0, 1.0, 37.0, 4096.0]))
+def test_a_shift_of_every_clock_shifts_the_decision_times_and_nothing_else(streams, shift):
+    """Every stamp of every stream moved by the same whole number of seconds: the decisions
+    are those of the unshifted streams with ``t_s`` moved by it (terrain, probabilities,
+    flags, targets and window ages unchanged); the same shift given as the streams'
+    ``clock_offsets_s`` gives them too."""
+    order, arrays = streams
+    per_sample = [(s, [i]) for s, i in order]
+    base, _ = _push_chunks(_service(), arrays, per_sample)
+    moved, _ = _push_chunks(_service(), arrays, per_sample, shift)
+    offset, _ = _push_chunks(_service(offsets={"left": shift, "right": shift}), arrays,
+                             per_sample)
+    assert _key(moved, shift) == _key(base)
+    assert _key(offset, shift) == _key(base)
+
+
+# ---------------------------------------------------------------- flags and targets
+
+@FAST
+@given(streams=_two_streams(), data=st.data(),
+       min_conf=st.sampled_from([0.5, 0.6, 0.9]),
+       smoothing=st.sampled_from([SmoothingConfig(), SmoothingConfig(dwell_s=None),
+                                  SmoothingConfig(hysteresis=0.3)]))
+def test_stale_low_confidence_and_targets_follow_the_documented_rules(
+        streams, data, min_conf, smoothing):
+    """For clean samples (no rule refuses any), per decision:
+
+    * ``stale`` iff a stream's newest sample, when the decision came, is more than
+      ``stale_s`` before ``t_s``;
+    * ``low_confidence`` iff a terrain is decided below ``min_confidence``;
+    * the targets are the desired-slip table's entry for the decided terrain when it is
+      trusted (decided, at or above ``min_confidence``, not stale), else its conservative
+      fallback (the smallest traction and steady targets, the braking one nearest 0);
+    * the confidence is the decided class's probability, the probabilities a distribution.
+    """
+    order, arrays = streams
+    svc = _service(smoothing=smoothing, min_confidence=min_conf)
+    got, newest = _push_chunks(svc, arrays, data.draw(_chunked(order)))
+    table = svc.targets.table
+    fb = table.fallback
+    entries = list(table.entries.values())
+    assert fb.traction == min(e.traction for e in entries)
+    assert fb.steady == min(e.steady for e in entries)
+    assert abs(fb.braking) == min(abs(e.braking) for e in entries)
+    for d, last in zip(got, newest):
+        flags = set(d.flags.split("|")) - {""}
+        stale = any(d.t_s - t > svc.config.stale_s for t in last.values())
+        assert ("stale" in flags) == stale
+        low = d.terrain is not None and d.confidence < min_conf
+        assert ("low_confidence" in flags) == low
+        assert np.all((d.proba >= 0) & (d.proba <= 1)) and d.proba.sum() == pytest.approx(1)
+        if d.terrain is None:
+            assert d.confidence == 0.0
+        else:
+            assert d.confidence == d.proba[CLASSES.index(d.terrain)]
+        want = table.entries[d.terrain] if (d.terrain is not None and not low
+                                            and not stale) else fb
+        assert (d.target_slip_traction, d.target_slip_braking, d.target_slip_steady) == \
+            (want.traction, want.braking, want.steady)
+
+
+@FAST
+@given(streams=_two_streams(), hyst=st.floats(0.05, 0.6))
+def test_the_decided_terrain_changes_only_past_the_hysteresis_margin(streams, hyst):
+    """With a hysteresis margin the decided terrain changes from one decision to the next
+    only when the new one's probability exceeds the old one's by more than the margin (an
+    unclassified window, a gap, changes nothing: the filter only predicts)."""
+    order, arrays = streams
+    for dwell in (None, 10.0):
+        svc = _service(smoothing=SmoothingConfig(dwell_s=dwell, hysteresis=hyst))
+        got, _ = _push_chunks(svc, arrays, [(s, [i]) for s, i in order])
+        for before, d in zip(got, got[1:]):
+            if before.terrain is not None and d.terrain != before.terrain:
+                new, old = CLASSES.index(d.terrain), CLASSES.index(before.terrain)
+                assert d.proba[new] > d.proba[old] + hyst
+
+
+# ---------------------------------------------------------------- memory
+
+@settings(FAST, max_examples=8)
+@given(seed=st.integers(0, 2**31 - 1), capacity=st.sampled_from([24, 64]))
+def test_memory_stays_bounded_on_a_long_faulty_stream(seed, capacity):
+    """A long stream with non-finite and out-of-range samples, late and re-sent ones:
+    every buffer holds at most ``buffer_samples`` (its arrays never grow), the rejection
+    log at most ``MAX_EVENTS`` spans per stream, and every sample pushed is accounted for
+    (buffered, refused, held or pushed out)."""
+    rng = np.random.default_rng(seed)
+    svc = _service(streams=ONE, buffer_samples=capacity)
+    buf = svc._intake.buffers["wheels"]
+    nbytes = buf._t.nbytes + buf._v.nbytes
+    t, pushed = 100.0, 0
+    for k in range(2000):
+        t += rng.choice([0.1, 0.1, 0.1, 0.125])
+        v = rng.uniform(-1, 1, 2)
+        if k % 7 == 0:
+            v[0] = np.nan
+        elif k % 11 == 0:
+            v[1] = 9.0
+        stamp = t - 0.35 if k % 13 == 0 else t   # a late sample now and then
+        svc.push("wheels", stamp, v)
+        pushed += 1
+    buf = svc._intake.buffers["wheels"]
+    assert len(buf) <= capacity and buf._t.nbytes + buf._v.nbytes == nbytes
+    assert all(len(ev) <= MAX_EVENTS for ev in svc._intake.events.values())
+    assert len(buf) + sum(svc.refused_samples.values()) + sum(svc.held_samples.values()) \
+        <= pushed
+    assert {r for _, r in svc.refused_samples} <= {"non_finite", "implausible_value",
+                                                   "time_not_increasing", "duplicate"}
+
+
+# ---------------------------------------------------------------- typed errors of a push
+
+_GOOD_T = np.array([1.0, 1.1])
+_GOOD_V = np.zeros((2, 2))
+
+
+@pytest.mark.parametrize("stream, t_s, values, error, column", [
+    ("imu", _GOOD_T, _GOOD_V, ConfigError, None),            # not configured
+    (3, _GOOD_T, _GOOD_V, ConfigError, None),                # not a name
+    ("wheels", np.array([True, False]), _GOOD_V, DataFormatError, "t_s"),
+    ("wheels", _GOOD_T, np.zeros((2, 2), dtype=bool), DataFormatError, "values"),
+    ("wheels", _GOOD_T, np.zeros((2, 3)), DataFormatError, "values"),
+    ("wheels", _GOOD_T, np.zeros((2, 2)).T[:1], DataFormatError, "values"),
+    ("wheels", _GOOD_T, {"vel_l": [0.0, 0.0]}, MissingColumnError, "vel_r"),
+    ("wheels", _GOOD_T, {"vel_l": [0.0, 0.0], "vel_r": [0.0]}, DataFormatError, "vel_r"),
+    ("wheels", _GOOD_T, {"vel_l": [0.0, 0.0], "vel_r": [True, False]}, DataFormatError,
+     "vel_r"),
+    ("wheels", ["1.0", "1.1"], _GOOD_V, DataFormatError, "t_s"),
+    ("wheels", np.array([1, 2], dtype="timedelta64[ms]"), _GOOD_V, DataFormatError, "t_s"),
+    ("wheels", np.ones((2, 1)), _GOOD_V, DataFormatError, "t_s"),
+])
+def test_a_bad_push_raises_a_typed_error_naming_the_stream_and_field(stream, t_s, values,
+                                                                     error, column):
+    svc = _service(streams=ONE)
+    with pytest.raises(error) as info:
+        svc.push(stream, t_s, values)
+    assert repr(stream)[:20] in str(info.value)
+    if column is not None:
+        assert info.value.column == column and info.value.path == f"stream {stream}"
+    assert not svc.refused_samples and not len(svc._intake.buffers["wheels"])
+
+
+def test_nan_and_backward_stamps_are_refused_and_counted_not_raised():
+    """A NaN stamp and a stamp going back are samples the rules refuse (counted by stream
+    and reason), not errors: the robot's loop goes on."""
+    svc = _service(streams=ONE)
+    svc.push("wheels", np.array([1.0, 1.1, math.nan, 1.05, 1.2]), np.zeros((5, 2)))
+    assert svc.refused_samples == {("wheels", "non_finite"): 1,
+                                   ("wheels", "time_not_increasing"): 1}
+    np.testing.assert_array_equal(svc._intake.buffers["wheels"].times(), [1.0, 1.1, 1.2])
