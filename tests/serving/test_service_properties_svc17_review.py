@@ -18,9 +18,11 @@ from hypothesis import strategies as st
 
 from features.windows import WindowConfig
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError
-from terrain.serving import (SmoothingConfig, StreamConfig, StreamModel, StreamService,
-                             TableTargets)
+from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                             StreamModel, StreamService, TableTargets)
+from terrain.serving.buffers import RingBuffer
 from terrain.serving.intake import MAX_EVENTS
+from terrain.serving.smoothing import PROBA_FLOOR, ForwardFilter
 
 FAST = settings(max_examples=40, deadline=None,
                 suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
@@ -293,3 +295,126 @@ def test_nan_and_backward_stamps_are_refused_and_counted_not_raised():
     assert svc.refused_samples == {("wheels", "non_finite"): 1,
                                    ("wheels", "time_not_increasing"): 1}
     np.testing.assert_array_equal(svc._intake.buffers["wheels"].times(), [1.0, 1.1, 1.2])
+
+
+# ---------------------------------------------------------------- boundaries (hand mutants)
+
+class _Const:
+    """Stand-in answering the same probabilities ``q`` for every window."""
+
+    classes_ = np.array(CLASSES)
+
+    def __init__(self, q):
+        self.q = np.asarray(q, dtype=float)
+
+    def predict_proba(self, X):
+        return np.tile(self.q, (len(X), 1))
+
+
+def _const_service(q, **kw):
+    model = StreamModel(_Const(q), ("vel_l", "vel_r"), WindowConfig(window_s=1.0, rate_hz=8.0),
+                        CLASSES)
+    return StreamService(model, TableTargets(CLASSES),
+                         StreamConfig(hop_s=0.5, streams=ONE, **kw))
+
+
+def test_a_confidence_equal_to_min_confidence_is_trusted():
+    """A decision at exactly ``min_confidence`` is trusted (the table's rule,
+    ``confidence_is_trusted``): no ``low_confidence``, the terrain's own targets. (Mutant
+    ``conf > min_confidence`` survived every test of the area.)"""
+    svc = _const_service([0.5, 0.3, 0.2], smoothing=SmoothingConfig(dwell_s=None))
+    t = 100.0 + np.arange(40) / 8
+    got = svc.push("wheels", t, np.zeros((40, 2)))
+    assert got and all(d.terrain == "ASPHALT" and d.confidence == 0.5 for d in got)
+    asphalt = svc.targets.table.entries["ASPHALT"]
+    assert all(d.flags == "" and d.target_slip_traction == asphalt.traction for d in got)
+
+
+def test_a_rejection_flags_the_windows_holding_it_from_its_first_edge_on():
+    """A refused sample flags exactly the windows ``[t - window_s, t)`` holding it: one at
+    a window's start does, one at its end does not, and two rejections 1.5 windows apart
+    are two spans (a window between them is clean). (Mutants ``last > t_lo`` in
+    ``_decide`` and a merge of spans up to two windows apart in ``StreamIntake.note``.)"""
+    t = 100.0 + np.arange(80) / 8
+    v = np.zeros((80, 2))
+    v[t == 102.0, 0] = np.nan
+    v[t == 103.5, 0] = np.nan
+    svc = _const_service([0.9, 0.05, 0.05])
+    got = {d.t_s: d.flags for d in svc.push("wheels", t, v)}
+    assert got[102.0] == ""                      # [101, 102): the rejection at its end
+    assert got[102.5] == got[103.0] == "non_finite"    # [102, 103) holds it at its start
+    assert got[103.5] == ""                      # [102.5, 103.5): between the two
+    assert got[104.0] == got[104.5] == "non_finite"
+
+
+def test_a_lagging_stream_is_waited_for_until_another_began_stale_s_past_the_decision():
+    """A decision waits for a silent stream until another stream's newest push begins
+    exactly ``stale_s`` past it, not one sample later. (Mutant ``arrived > next_t +
+    stale_s``.)"""
+    svc = _service()
+    emitted = {}
+    for k in range(60):
+        s = 100.0 + k / 8
+        for stream, ch in (("left", "vel_l"), ("right", "vel_r")):
+            if stream == "right" and s > 103.0:
+                continue     # the right stream falls silent after 103 s
+            for d in svc.push(stream, s, {ch: 0.0}):
+                emitted[d.t_s] = s
+    late = {t: s for t, s in emitted.items() if t > 103.0}
+    assert late and all(s == t + svc.config.stale_s for t, s in late.items())
+
+
+def test_a_silent_stretch_skips_every_decision_due_over_max_backlog_before_the_newest():
+    """After a 90 s silence, the decisions whose window holds no sample and that are due
+    more than ``max_backlog_s`` before the newest sample are skipped and counted, every
+    one of them (the first emitted after the silence is the first within the backlog).
+    (Mutants: ``floor`` for ``ceil`` in ``_silent_hops``, ``skipped += 1`` per skip.)"""
+    svc = _service(streams=ONE)
+    t = np.r_[100.0 + np.arange(81) / 8, 200.25 + np.arange(20) / 8]
+    got = []
+    for s in t:
+        got += svc.push("wheels", s, np.zeros(2))
+    times = np.array([d.t_s for d in got])
+    # the samples after the 90 s step wait for 8 steps (rule timestamp_units): the
+    # silence's decisions are due once the one at 201.25 s is taken
+    silent = times[(times > 111.0) & (times < 200.0)]
+    assert silent.min() == 141.5 >= 201.25 - svc.config.max_backlog_s
+    assert svc.skipped_decisions == len(np.arange(111.5, 141.25, 0.5)) == 60
+
+
+def test_a_reset_restarts_the_filter_at_exactly_reset_windows_confident_windows():
+    """The switch reset restarts the filter from the floored last window at the
+    ``reset_windows``-th confident window naming another class, not one later, and not by
+    the hysteresis margin (0.99 here). (Mutants ``streak > reset_windows``, hysteresis
+    halved.)"""
+    f = ForwardFilter(3, 0.5, SmoothingConfig(hysteresis=0.99, reset_confidence=0.9,
+                                              reset_windows=2))
+    for _ in range(5):
+        f.update(np.array([1.0, 0.0, 0.0]))
+    q = np.array([0.0, 0.95, 0.05])
+    assert f.update(q)[0] == 0
+    decided, p = f.update(q)
+    assert decided == 1
+    floored = np.maximum(q, PROBA_FLOOR)
+    np.testing.assert_allclose(p, floored / floored.sum())
+
+
+def test_evicted_counts_a_held_sample_at_exactly_since():
+    """A sample at exactly ``since_s`` is still needed: pushed out, it counts. (Mutant
+    ``first_t > since_s``.)"""
+    buf = RingBuffer(1, 2)
+    buf.append(np.array([1.0]), np.zeros((1, 1)))
+    buf.append(np.array([2.0]), np.zeros((1, 1)))
+    assert buf.evicted(np.array([3.0]), 1.0) == 1
+    assert buf.evicted(np.array([3.0]), 1.5) == 0
+
+
+def test_a_provider_threshold_just_above_the_services_is_refused():
+    """A provider threshold of 0.505 beside the service's 0.5 would give fallback targets
+    to unflagged decisions: refused; an equal one is taken. (Mutant: a 0.01 tolerance.)"""
+    model = MODEL
+    with pytest.raises(ConfigError, match="min_confidence"):
+        StreamService(model, CataloguePeakTargets(CLASSES, min_confidence=0.505),
+                      StreamConfig(streams=ONE, min_confidence=0.5))
+    StreamService(model, CataloguePeakTargets(CLASSES, min_confidence=0.5),
+                  StreamConfig(streams=ONE, min_confidence=0.5))
