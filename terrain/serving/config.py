@@ -126,12 +126,16 @@ def _check_streams(streams) -> None:
                           f"channel names, got {type(streams).__name__} {streams!r:.60}")
     names = []
     for stream, channels in streams.items():
-        if not isinstance(stream, str) or isinstance(channels, str) or not all(
-                isinstance(c, str) for c in channels) or not channels:
+        try:   # a number or None is not iterable: Python's own TypeError before
+            given = None if isinstance(channels, (str, bytes)) else tuple(channels)
+        except TypeError:
+            given = None
+        if not isinstance(stream, str) or not given or not all(
+                isinstance(c, str) for c in given):
             raise ConfigError("StreamConfig.streams must map stream names (text) to "
                               f"non-empty sequences of channel names, got {stream!r}: "
                               f"{channels!r:.60}")
-        names.extend(channels)
+        names.extend(given)
     dup = duplicated(names)
     if dup:
         raise ConfigError(f"StreamConfig.streams names channel(s) {dup} more than once; each "

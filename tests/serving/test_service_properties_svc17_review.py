@@ -418,3 +418,15 @@ def test_a_provider_threshold_just_above_the_services_is_refused():
                       StreamConfig(streams=ONE, min_confidence=0.5))
     StreamService(model, CataloguePeakTargets(CLASSES, min_confidence=0.5),
                   StreamConfig(streams=ONE, min_confidence=0.5))
+
+
+# ---------------------------------------------------------------- defects found
+
+@pytest.mark.parametrize("channels", [5, None, 2.5, True])
+def test_stream_channels_that_are_not_a_sequence_are_a_config_error_naming_the_stream(
+        channels):
+    """``StreamConfig(streams={"wheels": 5})`` raised Python's own ``TypeError: 'int'
+    object is not iterable`` (and ``None`` likewise), where the docstring promises a
+    ``ConfigError`` for streams that do not map names to channel names."""
+    with pytest.raises(ConfigError, match="wheels"):
+        StreamConfig(streams={"wheels": channels})
