@@ -311,11 +311,11 @@ class _Const:
         return np.tile(self.q, (len(X), 1))
 
 
-def _const_service(q, **kw):
+def _const_service(q, streams=ONE, **kw):
     model = StreamModel(_Const(q), ("vel_l", "vel_r"), WindowConfig(window_s=1.0, rate_hz=8.0),
                         CLASSES)
     return StreamService(model, TableTargets(CLASSES),
-                         StreamConfig(hop_s=0.5, streams=ONE, **kw))
+                         StreamConfig(hop_s=0.5, streams=streams, **kw))
 
 
 def test_a_confidence_equal_to_min_confidence_is_trusted():
@@ -418,6 +418,19 @@ def test_a_provider_threshold_just_above_the_services_is_refused():
                       StreamConfig(streams=ONE, min_confidence=0.5))
     StreamService(model, CataloguePeakTargets(CLASSES, min_confidence=0.5),
                   StreamConfig(streams=ONE, min_confidence=0.5))
+
+
+def test_the_first_decision_is_one_window_after_the_latest_stream_starts():
+    """Two clean streams starting 0.5 s apart: the first decision is due one window after
+    the later one starts (the first window both cover), and no decision is ``short``.
+    (Mutant: placed after the earlier one's start, a first decision ``short``.)"""
+    svc = _const_service([0.9, 0.05, 0.05], streams=TWO)
+    got = []
+    for k in range(40):
+        got += svc.push("left", 100.0 + k / 8, {"vel_l": 0.0})
+        got += svc.push("right", 100.5 + k / 8, {"vel_r": 0.0})
+    assert got[0].t_s == 100.5 + MODEL.window.window_s
+    assert all(d.flags == "" for d in got)
 
 
 # ---------------------------------------------------------------- defects found
