@@ -89,7 +89,7 @@ from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.intake import DecisionClock, StreamIntake
 from terrain.serving.model import StreamModel, model_track_m, model_vehicle
-from terrain.serving.rules import DEFAULT_RULES, SampleRule
+from terrain.serving.rules import DEFAULT_RULES, SampleRule, time_increasing
 from terrain.serving.smoothing import ForwardFilter
 from terrain.serving.targets import TargetProvider, check_provider
 
@@ -113,7 +113,9 @@ class StreamService:
         Desired-slip lookup.
     config : StreamConfig
     rules : sequence of SampleRule
-        Per-sample plausibility rules (default: the readers' rules).
+        Per-sample plausibility rules (default: the readers' rules);
+        :func:`~terrain.serving.rules.time_increasing` is added last when missing (the
+        buffers keep samples in increasing time).
 
     Raises
     ------
@@ -144,7 +146,10 @@ class StreamService:
         if given is None or not all(callable(r) for r in given):
             raise ConfigError("StreamService rules must be a sequence of SampleRule "
                               f"functions, got {type(rules).__name__} {rules!r:.60}")
-        rules = given
+        # the buffers keep samples in increasing time (read by binary search): that rule is
+        # applied whatever the rules given (a robot's own in place of the defaults let a
+        # chunk going back in time into a buffer, unsorted, nothing refused)
+        rules = given if time_increasing in given else given + (time_increasing,)
         check_hop(config.hop_s, model.window.rate_hz)
         check_provider(targets, model.classes, config.min_confidence)
         if config.buffer_samples < model.window.n_samples + 2:

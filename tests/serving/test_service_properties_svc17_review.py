@@ -443,3 +443,24 @@ def test_stream_channels_that_are_not_a_sequence_are_a_config_error_naming_the_s
     ``ConfigError`` for streams that do not map names to channel names."""
     with pytest.raises(ConfigError, match="wheels"):
         StreamConfig(streams={"wheels": channels})
+
+
+def test_rules_without_time_increasing_still_keep_the_buffers_in_time_order():
+    """A robot's own rules in place of the defaults (``rules=(finite_values,)``) let a
+    chunk going back in time into the buffer: after samples to 103.625 s, a push of 100.5
+    and 100.6 s left the buffer ``[..., 103.5, 103.625, 100.5, 100.6, 103.9]``, unsorted,
+    with nothing refused (every later window read by binary search on it). The buffers
+    need increasing time, so the service applies ``time_increasing`` whatever the rules:
+    the two samples are refused and counted as ``time_not_increasing`` (a NaN stamp after
+    them as ``non_finite`` by the robot's rule)."""
+    from terrain.serving.rules import finite_values
+    svc = StreamService(MODEL, TableTargets(CLASSES), StreamConfig(streams=ONE),
+                        rules=(finite_values,))
+    t = 100 + np.arange(30) / 8
+    svc.push("wheels", t, np.zeros((30, 2)))
+    svc.push("wheels", np.array([100.5, 100.6]), np.ones((2, 2)))
+    svc.push("wheels", np.array([103.9, math.nan]), np.zeros((2, 2)))
+    times = svc._intake.buffers["wheels"].times()
+    assert np.all(np.diff(times) > 0) and times[-1] == 103.9
+    assert svc.refused_samples == {("wheels", "time_not_increasing"): 2,
+                                   ("wheels", "non_finite"): 1}
