@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -220,6 +221,27 @@ def test_the_decided_terrain_changes_only_past_the_hysteresis_margin(streams, hy
             if before.terrain is not None and d.terrain != before.terrain:
                 new, old = CLASSES.index(d.terrain), CLASSES.index(before.terrain)
                 assert d.proba[new] > d.proba[old] + hyst
+
+
+@settings(FAST, max_examples=10)
+@given(streams=_two_streams(max_size=50), data=st.data())
+def test_the_value_container_of_a_push_changes_no_decision(streams, data):
+    """The same chunks pushed as ``{channel: array}``, an ``(n, 1)`` array, a 1-D column
+    or a DataFrame give the same decisions."""
+    order, arrays = streams
+    chunks = data.draw(_chunked(order))
+    got = []
+    for form in ("dict", "matrix", "column", "frame"):
+        svc = _service()
+        out = []
+        for s, idx in chunks:
+            t, v = arrays[s]
+            ch = MODEL.channels[s == "right"]
+            values = {"dict": {ch: v[idx]}, "matrix": v[idx][:, None], "column": v[idx],
+                      "frame": pd.DataFrame({ch: v[idx]})}[form]
+            out += svc.push(s, t[idx], values)
+        got.append(_key(out))
+    assert got[1] == got[0] and got[2] == got[0] and got[3] == got[0]
 
 
 # ---------------------------------------------------------------- memory
