@@ -455,6 +455,33 @@ def test_the_first_decision_is_one_window_after_the_latest_stream_starts():
     assert all(d.flags == "" for d in got)
 
 
+def test_a_stream_slower_than_the_look_back_margin_fills_every_window():
+    """A stream at 2.7 Hz (0.375 s steps, longer than the window's 2-period look-back of
+    0.25 s on the model's 8 Hz clock) still fills every window: every decision clean and
+    fresh, from one window after its first sample."""
+    svc = _const_service([0.9, 0.05, 0.05])
+    t = 100 + np.arange(40) * 0.375
+    got = svc.push("wheels", t, np.zeros((40, 2)))
+    assert len(got) == 28 and got[0].t_s == 101.0
+    assert all(d.flags == "" and d.window_age_s == 0.0 for d in got)
+
+
+def test_chunks_longer_than_stale_s_make_no_early_decision():
+    """Two streams pushed in turn in 5 s chunks (``stale_s`` 1 s) give the decisions of
+    the sample-by-sample replay, none stale or short: a stream's staleness is judged from
+    the first sample of its newest push. (Mutant: judged from its last sample.)"""
+    one, chunked = (_const_service([0.9, 0.05, 0.05], streams=TWO) for _ in range(2))
+    t = 100 + np.arange(120) / 8
+    a, b = [], []
+    for k in range(120):
+        a += one.push("left", t[k], {"vel_l": 0.0}) + one.push("right", t[k], {"vel_r": 0.0})
+    for k in range(0, 120, 40):
+        b += chunked.push("left", t[k:k + 40], {"vel_l": np.zeros(40)})
+        b += chunked.push("right", t[k:k + 40], {"vel_r": np.zeros(40)})
+    assert _key(b) == _key(a) and len(a) == 28
+    assert all(d.flags == "" for d in b)
+
+
 # ---------------------------------------------------------------- defects found
 
 @pytest.mark.parametrize("channels", [5, None, 2.5, True])
