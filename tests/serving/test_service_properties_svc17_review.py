@@ -482,6 +482,22 @@ def test_chunks_longer_than_stale_s_make_no_early_decision():
     assert all(d.flags == "" for d in b)
 
 
+def test_a_stamp_equal_to_the_one_before_is_not_increasing():
+    """A stamp equal to the stream's newest, or to the one before it in the chunk, is
+    refused (strictly increasing, the readers' ``TimestampError``); with other values it
+    is no re-send: ``time_not_increasing``, and the buffer stays strictly increasing.
+    (Mutant ``>=`` in ``time_increasing``.)"""
+    from terrain.serving.rules import time_increasing
+    keep, _ = time_increasing(("x",), np.array([1.0, 1.0, 2.0]), np.zeros((3, 1)), -np.inf)
+    np.testing.assert_array_equal(keep, [True, False, True])
+    assert not time_increasing(("x",), np.array([2.0]), np.zeros((1, 1)), 2.0)[0].any()
+    svc = _service(streams=ONE)
+    svc.push("wheels", np.array([1.0, 1.125]), np.zeros((2, 2)))
+    svc.push("wheels", 1.125, np.ones(2))
+    assert svc.refused_samples == {("wheels", "time_not_increasing"): 1}
+    np.testing.assert_array_equal(svc._intake.buffers["wheels"].times(), [1.0, 1.125])
+
+
 # ---------------------------------------------------------------- defects found
 
 @pytest.mark.parametrize("channels", [5, None, 2.5, True])
