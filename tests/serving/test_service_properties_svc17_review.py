@@ -529,3 +529,29 @@ def test_rules_without_time_increasing_still_keep_the_buffers_in_time_order():
     assert np.all(np.diff(times) > 0) and times[-1] == 103.9
     assert svc.refused_samples == {("wheels", "time_not_increasing"): 2,
                                    ("wheels", "non_finite"): 1}
+
+
+@pytest.mark.xfail(strict=True, reason="left open (svc17): a lagging stream is judged "
+                   "stale from the first sample of the newest push the rules accepted")
+def test_a_refused_last_sample_pushed_alone_leaves_no_decision_undecided():
+    """Found by the chunking property with refused samples: the right stream outlasts the
+    left one by 7 s and is pushed as :func:`terrain.serving.replay.interleave` gives it
+    (one chunk, then its last sample alone, so that the decisions due sample by sample
+    come); when that last sample is refused (a NaN value), the stream's newest push is
+    still the chunk, whose first sample (103.125 s) says how far it had reached: 5
+    decisions (to 103.0 s) where the same samples one by one give 16 (to 108.5 s). The
+    served model replays a request in chunks of 32 (``replay_run(max_chunk=32)``)."""
+    t_left, t_right = 100 + np.arange(25) / 8, 100 + np.arange(81) / 8
+    v_right = np.zeros(81)
+    v_right[-1] = np.nan
+    arrays = {"left": (t_left, np.zeros(25)), "right": (t_right, v_right)}
+    order = [(s, i) for _, _, s, i in sorted(
+        (t, s == "right", s, i) for s, (ts, _) in arrays.items()
+        for i, t in enumerate(ts.tolist()))]
+    one, chunked = (_const_service([0.9, 0.05, 0.05], streams=TWO) for _ in range(2))
+    a, _ = _push_chunks(one, arrays, [(s, [i]) for s, i in order])
+    b, _ = _push_chunks(chunked, arrays,
+                        [(s, [i]) for s, i in order if s == "left" or i < 25]
+                        + [("right", list(range(25, 80))), ("right", [80])])
+    assert len(a) == 16 and a[-1].t_s == 108.5
+    assert _key(b) == _key(a)
