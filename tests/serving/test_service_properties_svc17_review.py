@@ -498,6 +498,24 @@ def test_a_stamp_equal_to_the_one_before_is_not_increasing():
     np.testing.assert_array_equal(svc._intake.buffers["wheels"].times(), [1.0, 1.125])
 
 
+def test_rejections_of_alternating_reasons_each_flag_the_windows_holding_them():
+    """Rejections of two reasons in turn (a NaN at 102.0 s, a 9 m/s speed at 102.25 s, a
+    NaN at 102.5 s) are three spans of the bounded log: the window [101.5, 102.5) holds
+    the first two and carries both flags, though the third came before it was decided.
+    (Mutant: a log of 2 spans, ``MAX_EVENTS = 2``.)"""
+    t = 100.0 + np.arange(40) / 8
+    v = np.zeros((40, 2))
+    v[t == 102.0, 0] = np.nan
+    v[t == 102.25, 1] = 9.0
+    v[t == 102.5, 0] = np.nan
+    svc = _const_service([0.9, 0.05, 0.05])
+    got = {}
+    for k in range(40):
+        got.update({d.t_s: d.flags for d in svc.push("wheels", t[k], v[k])})
+    assert got[102.5] == "implausible_value|non_finite"
+    assert got[102.0] == ""
+
+
 # ---------------------------------------------------------------- defects found
 
 @pytest.mark.parametrize("channels", [5, None, 2.5, True])
