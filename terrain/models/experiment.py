@@ -95,10 +95,10 @@ class ExperimentConfig:
     Raises
     ------
     ConfigError
-        Unknown model, dataset, protocol or signal, a signal named twice, ``search`` not True or False or with a
-        model other than the SVM or with ``window_ekf`` or ``run_balanced``, ``window_ekf``
-        with signals
-        lacking ``vel_l``, ``vel_r`` or ``wz`` or holding an EKF channel, a ``train_hop_s``
+        Unknown model, dataset, protocol or signal, a signal named twice, ``search`` not
+        True or False or with a model other than the SVM or with ``window_ekf`` or
+        ``run_balanced``, ``window_ekf`` with signals lacking ``vel_l``, ``vel_r`` or ``wz``
+        or holding an EKF channel, a ``train_hop_s``
         that is not a finite positive number or comes with ``paper``, ``paper`` with a
         ``window_s`` or ``hop_s`` other than its own (or the defaults), no seed, one
         outside ``0..MAX_SEED`` or a repeated one, ``single_run_blocks`` or ``n_splits`` not
