@@ -35,7 +35,7 @@ class StreamConfig:
     Parameters
     ----------
     hop_s : float
-        Time between decisions, s (> 0).
+        Time between decisions, s (finite, > 0).
     stale_s : float
         A stream whose newest sample is older than the decision time by more than this is
         stale, s (> 0). A decision waits for a lagging stream until the newest push of
@@ -66,8 +66,8 @@ class StreamConfig:
     Raises
     ------
     ConfigError
-        A non-positive ``hop_s``, ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
-        non-finite ``stale_s``, ``max_backlog_s`` or ``clock_restart_s``, a
+        A ``hop_s``, ``stale_s``, ``max_backlog_s`` or ``clock_restart_s`` that is not a
+        finite number > 0, a
         ``min_confidence`` outside [0, 1], ``buffer_samples`` not an integer >= 2,
         ``gap_factor`` not a finite number > 1, or a clock offset that is not finite or
         names no configured stream; a number field given as text, a boolean, a list or
@@ -100,10 +100,9 @@ class StreamConfig:
         if not isinstance(self.smoothing, SmoothingConfig):
             raise ConfigError("StreamConfig.smoothing must be a SmoothingConfig, got "
                               f"{type(self.smoothing).__name__}")
-        if not self.hop_s > 0:
-            raise ConfigError(f"hop_s must be > 0, got {self.hop_s}")
-        # an infinite stale_s waits for ever for a silent stream (no decision at all)
-        for name in ("stale_s", "max_backlog_s", "clock_restart_s"):
+        # an infinite stale_s waits for ever for a silent stream (no decision at all); an
+        # infinite hop was refused only by the service built on it (check_hop)
+        for name in ("hop_s", "stale_s", "max_backlog_s", "clock_restart_s"):
             if not 0 < getattr(self, name) < np.inf:
                 raise ConfigError(f"{name} must be a finite number of seconds > 0, got "
                                   f"{getattr(self, name)}")

@@ -8,6 +8,7 @@ import pytest
 
 from terrain.errors import ConfigError
 from terrain.serving.buffers import RingBuffer
+from terrain.serving.config import StreamConfig
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
 from terrain.serving.targets import CataloguePeakTargets
 
@@ -88,3 +89,11 @@ def test_catalogue_targets_take_a_zero_confidence_threshold_and_refuse_no_class(
     assert targets.target_for("ASPHALT", 0.0, False) != targets.fallback
     with pytest.raises(ConfigError, match="at least one class"):
         CataloguePeakTargets([])
+
+
+def test_stream_config_refuses_an_infinite_hop_where_it_is_given():
+    # StreamConfig(hop_s=inf) was accepted and refused only when a service was built on it
+    # (check_hop, naming no StreamConfig); it takes finite hops, as its other durations
+    with pytest.raises(ConfigError, match="hop_s must be a finite number of seconds > 0"):
+        StreamConfig(hop_s=float("inf"))
+    assert StreamConfig(hop_s=2.0).hop_s == 2.0
