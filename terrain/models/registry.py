@@ -125,7 +125,8 @@ class ModelConfig:
     Raises
     ------
     ConfigError
-        An unknown ``kind`` or ensemble member, or a member named twice;
+        An unknown ``kind`` or ensemble member, a member named twice, or one name given as
+        ``ensemble_members`` (text, not a tuple);
         ``tune_weights``, ``early_stopping``, ``window_ekf`` or ``run_balanced`` not True or
         False; ``max_epochs``,
         ``minirocket_kernels`` or ``minirocket_max_dilations`` not an integer >= 1;
@@ -167,6 +168,9 @@ class ModelConfig:
         config_positive("ModelConfig", allow_zero=True,
                         spectrogram_noise_std=self.spectrogram_noise_std)
         config_positive("ModelConfig", track_m=self.track_m)
+        if isinstance(self.ensemble_members, (str, bytes)):   # read letter by letter
+            raise ConfigError(f"ensemble_members must be a tuple of member names, e.g. "
+                              f"{ENSEMBLE_MEMBERS}, got {self.ensemble_members!r}")
         if not self.ensemble_members or set(self.ensemble_members) - set(singles):
             raise ConfigError(f"ensemble members must be among {singles}, "
                               f"got {list(self.ensemble_members)}")

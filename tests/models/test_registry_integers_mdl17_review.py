@@ -25,3 +25,13 @@ def test_numpy_integers_are_counts_for_every_setting():
 def test_booleans_floats_and_out_of_range_counts_are_still_refused(field, value):
     with pytest.raises(ConfigError, match=f"{field} must be an integer"):
         ModelConfig(kind="cnn", **{field: value})
+
+
+@pytest.mark.parametrize("members", ["svm", "cnn-spectrogram"])
+def test_ensemble_members_given_as_one_name_are_refused_naming_it(members):
+    # one name where a tuple is meant was read letter by letter: the message listed
+    # ['s', 'v', 'm'] as the members given
+    with pytest.raises(ConfigError, match=f"ensemble_members must be a tuple of member "
+                                          f"names, e.g. \\('svm', 'cnn-spectrogram'\\), got "
+                                          f"'{members}'"):
+        ModelConfig(kind="ensemble", ensemble_members=members)
