@@ -198,7 +198,7 @@ def check_provider(targets, classes: Sequence[str], min_confidence: float) -> No
     ConfigError
         The provider's ``min_confidence`` not a number in [0, 1] (NaN: every decision gets
         the fallback) or above the service's, or a model class missing from the provider's
-        ``classes`` (each named).
+        ``classes`` (each named; names compared in upper case, as the tables look them up).
     """
     floor = getattr(targets, "min_confidence", None)
     if floor is not None:
@@ -211,7 +211,10 @@ def check_provider(targets, classes: Sequence[str], min_confidence: float) -> No
                           "low_confidence flag; give both the same threshold")
     held = getattr(targets, "classes", None)
     if held is not None:
-        missing = [str(c) for c in classes if c not in set(held)]
+        # a table answers a class in any case (select_target upper-cases it, as the
+        # catalogue names are): 'ice' was refused the table built from 'ice'
+        known = {str(h).upper() for h in held}
+        missing = [str(c) for c in classes if str(c).upper() not in known]
         if missing:
             raise ConfigError(f"{type(targets).__name__} holds no targets for the model's "
                               f"class(es) {missing} (it has {[str(c) for c in held]}): their "

@@ -69,3 +69,17 @@ def test_check_provider_refuses_a_provider_threshold_just_above_the_services():
 
     with pytest.raises(ConfigError, match=r"min_confidence 0\.505 is above the service's"):
         check_provider(_Custom(0.505), ("ASPHALT",), 0.5)
+
+
+def test_a_model_with_lower_case_classes_takes_the_table_built_from_them():
+    """The table answers a class in any case (``select_target`` upper-cases it, as the
+    catalogue names are), but check_provider compared names as given: a model trained on
+    'ice' and 'snow' was refused the TableTargets built from those very names ('holds no
+    targets for the model's class(es) ['ice', 'snow'] (it has ['ICE', 'SNOW'])')."""
+    from terrain.serving.targets import check_provider
+
+    table = TableTargets(["ice", "snow"])
+    check_provider(table, ["ice", "snow"], 0.5)
+    assert table.target_for("ice", 0.9, False) == table.target_for("ICE", 0.9, False)
+    with pytest.raises(ConfigError, match=r"class\(es\) \['grass'\]"):
+        check_provider(table, ["ice", "grass"], 0.5)
