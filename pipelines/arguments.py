@@ -15,6 +15,7 @@ import argparse
 import errno
 import math
 import os
+import re
 import tempfile
 from pathlib import Path
 
@@ -215,7 +216,7 @@ def input_path(value: str) -> str:
 
 
 def input_folder(value: str) -> Path:
-    """argparse ``type`` of an argument naming a folder (or model URI) the command reads: as
+    """argparse ``type`` of an argument naming a folder the command reads: as
     :func:`input_path`, so an empty value is refused rather than taken as ``Path("")``, the
     working folder.
 
@@ -236,6 +237,36 @@ def input_folder(value: str) -> Path:
         working folder).
     """
     return Path(input_path(value))
+
+
+def model_folder(value: str) -> Path:
+    """argparse ``type`` of ``--model`` of a command that reads a model directory only
+    (``terrain stream``, ``terrain serve``): as :func:`input_folder`, and a model URI is
+    refused by name (``models:/terrain-borealtc/latest`` was reported as "model directory
+    models:/terrain-borealtc/latest does not exist", ``http://x/y`` as ``http:/x/y``).
+
+    Parameters
+    ----------
+    value : str
+        The option's value.
+
+    Returns
+    -------
+    pathlib.Path
+        ``value`` as a path.
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        The value is empty or blank, or a URI (a scheme of two or more characters and a
+        colon: ``models:``, ``runs:``, ``http:``; a drive letter such as ``C:`` is a path).
+    """
+    _refuse_empty(value)
+    if re.match(r"[A-Za-z][A-Za-z0-9+.-]+:", value):
+        raise argparse.ArgumentTypeError(
+            f"{value!r} is a URI: this command reads a model directory (terrain train "
+            "--model-out DIR); terrain predict reads models:/ and runs:/ URIs")
+    return Path(value)
 
 
 def model_dir(value: str) -> Path:

@@ -31,7 +31,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
-from pipelines.arguments import (add_smoothing, input_folder, model_dir, positive_number,
+from pipelines.arguments import (add_smoothing, model_dir, model_folder, positive_number,
                                  probability, smoothing_from_args)
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
@@ -51,7 +51,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         The subcommand's parser.
     """
-    parser.add_argument("--model", type=input_folder, required=True,
+    parser.add_argument("--model", type=model_folder, required=True,
                         help="model directory (terrain train --model-out, or a served model)")
     parser.add_argument("--host", default="127.0.0.1", help="loopback address to bind")
     parser.add_argument("--port", type=int, default=5001,

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import argparse
 
-from pipelines.arguments import (add_smoothing, input_folder, output_file, positive_number,
-                                 probability, smoothing_from_args)
+from pipelines.arguments import (add_smoothing, input_folder, model_folder, output_file,
+                                 positive_number, probability, smoothing_from_args)
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
@@ -30,7 +30,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Sub-command parser to which the options are added (modified in place).
     """
-    parser.add_argument("--model", type=input_folder, required=True,
+    parser.add_argument("--model", type=model_folder, required=True,
                         help="model directory (terrain train --model-out)")
     parser.add_argument("run_dir", type=input_folder, metavar="RUN_DIR",
                         help="terrain folder holding the run's imu_XX.csv / pro_XX.csv")

@@ -413,3 +413,16 @@ def test_a_prefix_of_an_option_is_a_usage_error_not_that_option(argv, capsys, tm
     # argparse's default took a prefix as the option it starts: `terrain cv --seed 1` ran
     # a whole cross-validation as --seeds 1 and wrote an MLflow store, unsaid
     assert "unrecognized arguments" in _usage_error(argv, capsys, tmp_path, monkeypatch)
+
+
+@pytest.mark.parametrize("command", [["stream", "RUN", "--out", "d.csv"],
+                                     ["serve", "--port", "5999"]])
+@pytest.mark.parametrize("uri", ["models:/terrain-borealtc/latest", "runs:/abc/model",
+                                 "http://host/m"])
+def test_a_model_uri_where_a_model_directory_is_read_is_a_usage_error(command, uri, capsys,
+                                                                      tmp_path, monkeypatch):
+    # "model directory models:/terrain-borealtc/latest does not exist" (http://host/m named
+    # as http:/host/m): stream and serve read a directory; predict reads the URIs
+    err = _usage_error([command[0], "--model", uri, *command[1:]], capsys, tmp_path,
+                       monkeypatch)
+    assert f"{uri!r} is a URI" in err and "terrain predict reads" in err, err
