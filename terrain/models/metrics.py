@@ -33,7 +33,10 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     y_pred : sequence of str
         ``(n_windows,)`` predicted label of each window.
     classes : sequence of str
-        All class labels of the task (see Returns for which each metric counts).
+        All class labels of the task, in the order of the ``recall_`` keys (see Returns
+        for which each metric counts); a label of ``y_true`` or ``y_pred`` outside them
+        counts as a class too, after them (a predicted class the list lacks scores F1 0
+        in ``macro_f1``, as in scikit-learn's macro average).
 
     Returns
     -------
@@ -52,8 +55,13 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     """
     _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
-    present = [c for c in classes if (y_true == c).any()]
-    scored = [c for c in classes if (y_true == c).any() or (y_pred == c).any()]
+    # a label outside classes counts too, after them: a predicted class the list lacks
+    # was left out of macro-F1 (a held-out truth's classes, the model knowing one more)
+    known = set(classes)
+    labels = list(classes) + [c for c in np.unique(np.concatenate([y_true, y_pred])).tolist()
+                              if c not in known]
+    present = [c for c in labels if (y_true == c).any()]
+    scored = [c for c in labels if (y_true == c).any() or (y_pred == c).any()]
     recalls = recall_score(y_true, y_pred, labels=present, average=None, zero_division=0)
     out = {
         "accuracy": float(accuracy_score(y_true, y_pred)),
