@@ -247,6 +247,40 @@ def refuse_booleans(error: type[TerrainError], owner: str | None = None, **value
             raise error(f"{where}{name} must hold numbers, got booleans")
 
 
+def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> None:
+    """Raise :class:`NonFiniteInputError` where ``values`` hold a missing entry (NaN or
+    None, as :func:`pandas.isna` reads them): the shared refusal of missing labels and runs
+    in the models (pandas' ``groupby`` leaves such a window out, NumPy's ``unique`` counts
+    every NaN once or apart, ``astype(str)`` makes it the class ``'nan'``).
+
+    Parameters
+    ----------
+    owner : str
+        The function or object refusing, put first in the message.
+    name : str
+        The argument's name.
+    values : array_like
+        ``(n,)`` labels or run ids.
+    what : str
+        What an entry is, plural form, e.g. ``"label(s)"``, ``"run(s)"``.
+    why : str
+        Appended after a colon where not empty.
+
+    Raises
+    ------
+    NonFiniteInputError
+        "<owner>: <name> holds <count> missing <what> (NaN or None), the first at index
+        <i>[: <why>]".
+    """
+    import pandas as pd
+
+    missing = np.flatnonzero(pd.isna(np.asarray(values, dtype=object)))
+    if missing.size:
+        raise NonFiniteInputError(f"{owner}: {name} holds {missing.size} missing {what} (NaN "
+                                  f"or None), the first at index {missing[0]}"
+                                  + (f": {why}" if why else ""))
+
+
 class ConfigError(TerrainError, ValueError):
     """An unknown name or an out-of-range parameter in a configuration.
 

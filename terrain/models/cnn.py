@@ -44,7 +44,7 @@ from sklearn.utils.validation import (check_array, check_consistent_length, chec
                                       column_or_1d)
 
 from terrain.errors import (ConfigError, ShapeError, config_integer, config_numbers,
-                            config_positive)
+                            config_positive, refuse_missing)
 from terrain.models.cv import class_keeping_split, restored_on_failure
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -251,6 +251,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             windows not finite, booleans, not 2-D or 3-D, or empty (0 channels or 0
             samples). A refused fit leaves the model as it was (unfitted, or its previous
             fit whole: :func:`~terrain.models.cv.restored_on_failure`).
+        NonFiniteInputError
+            A label of ``y`` is missing (NaN or None), named by its index.
         """
         with restored_on_failure(self):
             return self._fit(X, y, groups, sample_weight)
@@ -280,6 +282,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         X = self._check_windows(X)
         y = column_or_1d(y, warn=True)
         check_consistent_length(X, y)
+        # (None beside text reached NumPy's bare "'<' not supported" in np.unique)
+        refuse_missing(type(self).__name__, "y", y, "label(s)")
         check_classification_targets(y)
         self.n_features_in_ = X.shape[1]
         self.window_shape_ = as_windows(X).shape[1:]

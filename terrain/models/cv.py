@@ -29,8 +29,8 @@ import pandas as pd
 from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
-from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_integer,
-                            duplicated, first_items, is_integer, listed)
+from terrain.errors import (ConfigError, ShapeError, config_integer, duplicated, first_items,
+                            is_integer, listed, refuse_missing)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 
 PROTOCOLS = ("grouped", "loro", "paper")
@@ -308,11 +308,8 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     if len(labels) != len(groups):     # scikit-learn's "inconsistent numbers of samples"
         raise ShapeError(f"iter_splits: labels ({len(labels)}) and groups ({len(groups)}) "
                          "must hold one entry per window")
-    missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
-    if missing.size:
-        raise NonFiniteInputError(f"iter_splits: groups holds {missing.size} missing run(s) "
-                                  f"(NaN or None), the first at index {missing[0]}: every "
-                                  "window needs its split unit")
+    refuse_missing("iter_splits", "groups", groups, "run(s)",
+                   "every window needs its split unit")
     if protocol in ("grouped", "paper"):
         # NumPy's bare "Seed must be between 0 and 2**32 - 1" (grouped), or a seed taken
         # modulo 2**32 without a word (paper: -1 was 20, 2**32 the published split)
@@ -456,11 +453,7 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
     config_integer(setting, n_splits, 2)
     if groups is not None:
         # every NaN is a new object: a set counted one run per missing window
-        missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
-        if missing.size:
-            raise NonFiniteInputError(f"{purpose}: groups holds {missing.size} missing run(s) "
-                                      f"(NaN or None), the first at index {missing[0]}: every "
-                                      "window needs its run")
+        refuse_missing(purpose, "groups", groups, "run(s)", "every window needs its run")
     runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
     if len(runs) < n_splits:
         given = first_items(runs, word="run") if runs else "no groups given"
@@ -715,10 +708,7 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     from joblib import Parallel, delayed
 
     y = np.asarray(y)
-    missing = np.flatnonzero(pd.isna(y.astype(object)))
-    if missing.size:     # astype(str) made them the class "nan" ("None")
-        raise NonFiniteInputError(f"cross_validate: y holds {missing.size} missing label(s) (NaN "
-                                  f"or None), the first at index {missing[0]}")
+    refuse_missing("cross_validate", "y", y, "label(s)")  # astype(str): the class "nan"
     for name, values in (("X", X), ("groups", groups), ("run_ids", run_ids),
                          ("t_start_s", t_start_s), ("t_end_s", t_end_s)):
         n = values.shape[0] if hasattr(values, "shape") else len(values)   # (sparse X)

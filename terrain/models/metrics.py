@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_score
 
-from terrain.errors import NonFiniteInputError, ShapeError
+from terrain.errors import ShapeError, refuse_missing
 
 
 def _check_windows(owner: str, **columns) -> None:
@@ -97,10 +97,7 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
         A group is missing (NaN or None: pandas' ``groupby`` would leave its windows out of
         the vote, and out of :func:`run_majority_accuracy`'s count).
     """
-    missing = np.flatnonzero(pd.isna(np.asarray(groups, dtype=object)))
-    if missing.size:
-        raise NonFiniteInputError(f"majority_vote: groups holds {missing.size} missing run(s) "
-                                  f"(NaN or None), the first at index {missing[0]}")
+    refuse_missing("majority_vote", "groups", groups, "run(s)")
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
     counts = frame.groupby(["g", "p"]).size().reset_index(name="n")
     counts = counts.sort_values(["g", "n", "p"], ascending=[True, False, True])

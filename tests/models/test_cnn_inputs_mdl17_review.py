@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, NonFiniteInputError
 from terrain.models.cnn import RawCNNClassifier
 
 TINY = dict(max_epochs=4, width=2, batch_size=8, n_threads=1, device="cpu")
@@ -78,3 +78,12 @@ def test_training_settings_are_refused_by_name_before_training(setting, value):
     X, y, _ = _runs()
     with pytest.raises(ConfigError, match=setting):
         RawCNNClassifier(**{**TINY, setting: value}).fit(X, y)
+
+
+def test_a_missing_label_is_refused_by_index():
+    # None beside text reached NumPy's bare TypeError "'<' not supported between instances
+    # of 'NoneType' and 'str'" in np.unique
+    X = np.random.default_rng(0).normal(size=(6, 2, 16))
+    y = np.array(["A", "B", None, "A", "B", "A"], dtype=object)
+    with pytest.raises(NonFiniteInputError, match="y holds 1 missing label.*index 2"):
+        RawCNNClassifier(max_epochs=1).fit(X, y)
