@@ -238,12 +238,14 @@ def rim_speed_from_slip(ground_speed_m_s: float, slip: float) -> tuple[float, fl
     ground_speed_m_s : float
         Longitudinal ground speed ``v`` of the wheel's contact, m/s.
     slip : float
-        SAE slip ``s``, dimensionless, ``|s| < 1``.
+        SAE slip ``s``, dimensionless, ``-1 <= q < 1``.
 
     Returns
     -------
     rim_speed_m_s : float
-        ``omega r``, m/s.
+        ``omega r``, m/s; NaN (as both derivatives) where ``q >= 1`` or ``q < -1`` or the
+        slip is NaN (no rim speed gives that slip: ``q = 1`` divided by zero, ``q > 1`` ran
+        the rim against the ground); ``q = -1`` is the locked wheel, rim speed 0.
     d_rim_d_ground : float
         ``d(omega r) / dv`` at fixed slip, dimensionless.
     d_rim_d_slip : float
@@ -251,6 +253,8 @@ def rim_speed_from_slip(ground_speed_m_s: float, slip: float) -> tuple[float, fl
     """
     sign = 1.0 if ground_speed_m_s >= 0.0 else -1.0
     q = sign * slip
+    if not -1.0 <= q < 1.0:   # q >= 1 divided by zero or ran the rim against the ground
+        return np.nan, np.nan, np.nan
     if q >= 0.0:
         k = 1.0 / (1.0 - q)
         return ground_speed_m_s * k, k, abs(ground_speed_m_s) * k * k

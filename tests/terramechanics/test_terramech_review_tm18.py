@@ -1,0 +1,25 @@
+"""Review tm18 of terrain.terramechanics: inputs refused by name, inverse slip outside its
+domain, and Hypothesis properties of the traction curves, their peaks and the calibrations."""
+
+import math
+
+import pytest
+
+from terrain.terramechanics import sae_slip
+from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
+
+
+@pytest.mark.parametrize("v, s", [(1.0, 1.0), (0.0, 1.0), (-1.0, -1.0), (1.0, 1.5),
+                                  (1.0, -1.5), (-1.0, 1.5)])
+def test_rim_speed_from_slip_is_nan_where_no_rim_speed_gives_the_slip(v, s):
+    # q = sign(v) s >= 1 divided by zero (ZeroDivisionError) or gave a rim running against
+    # the ground (v 1, s 1.5: -2 m/s, whose slip is 1, not 1.5); q < -1 likewise
+    assert all(math.isnan(x) for x in rim_speed_from_slip(v, s))
+
+
+def test_rim_speed_from_slip_keeps_the_locked_wheel():
+    # q = -1: a locked wheel on a moving body, rim speed 0 (eq. 7.2)
+    rim = rim_speed_from_slip(2.0, -1.0)[0]
+    assert rim == 0.0
+    assert float(sae_slip(rim, 2.0, dead_band_m_s=0.0)) == -1.0
+    assert float(ground_speed_from_slip(rim_speed_from_slip(2.0, 0.5)[0], 0.5)) == 2.0
