@@ -11,11 +11,13 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 from scipy.optimize import brentq, minimize_scalar
 
-from terrain.errors import ConfigError, config_fraction, config_numbers, config_positive
+from terrain.errors import (ConfigError, DataWarning, config_fraction, config_numbers,
+                            config_positive)
 from terrain.terramechanics.resistance import (G_M_S2, HYSTERESIS_SPEED_M_S,
                                                soil_resistance_coefficient)
 from terrain.terramechanics.traction import JanosiCurve, patch_mobilisation, traction_coefficient
@@ -106,6 +108,13 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
         ``current_a`` or ``speed_m_s`` not a real number (text, ``None``, a boolean),
         ``current_a`` not finite (NaN gave hysteresis 0 without a word), or ``speed_m_s``
         not positive and finite (the loss has no sign to calibrate).
+
+    Warns
+    -----
+    DataWarning
+        ``current_a`` below what the Husky draws on the terrain with no hysteresis: a
+        negative loss would be needed, 0 is returned (it was, without a word) and the
+        message gives the current the simulated Husky draws instead.
     """
     from terrain.vehicles.skid_steer import HUSKY
 
@@ -125,9 +134,19 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     rim = speed_m_s / (1.0 - s) if s < 1.0 else math.inf
     # the motor law is affine in the torque: the current above its no-load part buys torque
     no_load = float(m.current_from_torque(0.0, rim / h.wheel_radius_m))
-    torque = (current_a - no_load) * (m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency)
-    return max(0.0, (torque / (h.wheel_radius_m * side_load) - mu)
-               / np.tanh(rim / HYSTERESIS_SPEED_M_S))
+    nm_per_a = m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency
+    torque = (current_a - no_load) * nm_per_a
+    if torque < h.wheel_radius_m * side_load * mu:
+        # a negative loss would be needed: 0 is returned, as documented, but no longer
+        # without a word (the simulated Husky then draws more than the target)
+        floor_a = no_load + h.wheel_radius_m * side_load * mu / nm_per_a
+        warnings.warn(f"husky_hysteresis_for_current: current_a {current_a} A is below the "
+                      f"{floor_a:.4g} A per side the Husky draws on this terrain at "
+                      f"{speed_m_s} m/s with no hysteresis (no-load current plus the traction "
+                      f"balancing the soil resistance): hysteresis 0 assumed, the simulated "
+                      f"current stays {floor_a:.4g} A", DataWarning, stacklevel=2)
+        return 0.0
+    return (torque / (h.wheel_radius_m * side_load) - mu) / np.tanh(rim / HYSTERESIS_SPEED_M_S)
 
 
 def calibrate_janosi(soil_resistance: float, slip_steady: float, slip_accel: float,

@@ -5,7 +5,8 @@ import math
 
 import pytest
 
-from terrain.terramechanics import sae_slip
+from terrain.errors import DataWarning
+from terrain.terramechanics import get_terrain, husky_hysteresis_for_current, sae_slip
 from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
 
 
@@ -23,3 +24,16 @@ def test_rim_speed_from_slip_keeps_the_locked_wheel():
     assert rim == 0.0
     assert float(sae_slip(rim, 2.0, dead_band_m_s=0.0)) == -1.0
     assert float(ground_speed_from_slip(rim_speed_from_slip(2.0, 0.5)[0], 0.5)) == 2.0
+
+
+@pytest.mark.parametrize("current_a", [0.0, -5.0, 0.5])
+def test_husky_hysteresis_warns_of_a_current_below_what_the_traction_alone_draws(current_a):
+    # it came out as hysteresis 0 without a word (tm5 keeps the 0), a terrain that then
+    # draws more than the target
+    with pytest.warns(DataWarning, match=r"current_a .* below the 2\.\d+ A"):
+        assert husky_hysteresis_for_current(get_terrain("SNOW"), current_a, 0.5) == 0.0
+
+
+def test_husky_hysteresis_round_trips_the_catalogue_calibration():
+    snow = get_terrain("SNOW")
+    assert husky_hysteresis_for_current(snow, 5.2, 0.37) == pytest.approx(snow.hysteresis)
