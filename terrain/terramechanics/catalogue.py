@@ -69,7 +69,12 @@ class TerrainParams:
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
         soil resistance, hysteresis, lateral friction and vibration levels finite and >= 0,
-        the vibration reference speed finite and > 0."""
+        the vibration reference speed finite and > 0, and a curve with a ``coefficients``
+        method (a :class:`~terrain.terramechanics.traction.TractionCurve`; anything else
+        failed at its first use with an AttributeError naming no field)."""
+        if not callable(getattr(self.curve, "coefficients", None)):
+            raise ConfigError(f"TerrainParams.curve must be a traction curve (BurckhardtCurve, "
+                              f"JanosiCurve, BrixiusCurve...), got {self.curve!r}")
         config_positive("TerrainParams", allow_zero=True, soil_resistance=self.soil_resistance,
                         hysteresis=self.hysteresis, lateral_friction=self.lateral_friction,
                         vib_accel_m_s2=self.vib_accel_m_s2, vib_gyro_rad_s=self.vib_gyro_rad_s)

@@ -5,8 +5,9 @@ import math
 
 import pytest
 
-from terrain.errors import DataWarning
-from terrain.terramechanics import get_terrain, husky_hysteresis_for_current, sae_slip
+from terrain.errors import ConfigError, DataWarning
+from terrain.terramechanics import (TerrainParams, get_terrain, husky_hysteresis_for_current,
+                                    sae_slip)
 from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
 
 
@@ -37,3 +38,11 @@ def test_husky_hysteresis_warns_of_a_current_below_what_the_traction_alone_draws
 def test_husky_hysteresis_round_trips_the_catalogue_calibration():
     snow = get_terrain("SNOW")
     assert husky_hysteresis_for_current(snow, 5.2, 0.37) == pytest.approx(snow.hysteresis)
+
+
+@pytest.mark.parametrize("curve", [None, 0.5, "ASPHALT", (1.28, 23.99, 0.52)])
+def test_terrain_params_refuses_a_curve_that_is_no_traction_curve(curve):
+    # accepted, then an AttributeError ('NoneType' object has no attribute 'coefficients')
+    # at the first traction or resistance asked of it, naming no field
+    with pytest.raises(ConfigError, match="curve"):
+        TerrainParams("X", curve, 0.1, 0.0, 0.5, 0.0, 0.0, 1.0, "test")
