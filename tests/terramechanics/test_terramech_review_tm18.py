@@ -145,3 +145,11 @@ def test_calibrate_janosi_round_trips_its_two_slips(f, s_ss, ratio):
     terrain = TerrainParams("X", curve, f, 0.0, 0.5, 0.0, 0.0, 1.0, "test")
     assert steady_slip(terrain) == pytest.approx(s_ss, abs=1e-7)
     assert steady_slip(terrain, 1.0 / G_M_S2) == pytest.approx(s_acc, abs=1e-7)
+
+
+@pytest.mark.parametrize("kr", [0.0, 1.0, -0.1, float("nan")])
+def test_janosi_curve_refuses_a_residual_ratio_outside_zero_one_when_built(kr):
+    # K_r = 0 passed the dataclass (mutant '0.0 <= residual_ratio') and failed only at the
+    # first traction, in patch_mobilisation
+    with pytest.raises(ConfigError, match="residual_ratio"):
+        JanosiCurve(0.5, 0.3, residual_ratio=kr)
