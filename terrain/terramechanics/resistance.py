@@ -132,7 +132,8 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
         Lateral resistance coefficient (friction plus bulldozing of sunk wheels),
         dimensionless, finite and >= 0.
     normal_load_n : ndarray, shape (n,)
-        Normal load of each contact, N.
+        Normal load of each contact, N; a negative one is a lifted contact, no force
+        (:func:`terrain.terramechanics.lateral.soil_lateral_force_and_slope` likewise).
     v_lateral_m_s : ndarray, shape (n,)
         Lateral velocity of each contact, m/s.
     slide_speed_m_s : float
@@ -157,6 +158,9 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
     if not (isinstance(mu_lateral, float) and 0.0 <= mu_lateral < math.inf):
         config_positive("lateral_force_and_slope", allow_zero=True, mu_lateral=mu_lateral)
     normal = np.asarray(normal_load_n)
+    # a lifted contact carries no load: a negative one flipped the friction into a force
+    # along the slide (the soil law clips its load at 0 as well); 0 and -0.0 kept as given
+    normal = np.where(normal < 0.0, 0.0, normal)
     v = np.asarray(v_lateral_m_s)
     th_l = np.tanh(v / slide_speed_m_s)
     force = -mu_lateral * normal * th_l

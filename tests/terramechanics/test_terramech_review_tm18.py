@@ -15,6 +15,7 @@ from terrain.terramechanics import (G_M_S2, TERRAIN_NAMES, BurckhardtCurve, Jano
                                     soil_resistance_coefficient, steady_slip,
                                     traction_coefficient, traction_curve_and_slope,
                                     traction_peak)
+from terrain.terramechanics.resistance import lateral_force_and_slope
 from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
 
 
@@ -153,3 +154,13 @@ def test_janosi_curve_refuses_a_residual_ratio_outside_zero_one_when_built(kr):
     # first traction, in patch_mobilisation
     with pytest.raises(ConfigError, match="residual_ratio"):
         JanosiCurve(0.5, 0.3, residual_ratio=kr)
+
+
+@pytest.mark.parametrize("load", [-100.0, -1e-9])
+def test_coulomb_lateral_friction_of_a_negatively_loaded_contact_is_none(load):
+    # a negative load flipped the friction into a force along the slide (mu 0.5, load
+    # -100 N, sliding at +0.1 m/s: +50 N, pushing); the soil law
+    # (soil_lateral_force_and_slope) clips the load at 0, as this one now does
+    force, slope = lateral_force_and_slope(0.5, np.array([load, 100.0]), np.array([0.1, 0.1]))
+    assert force[0] == 0.0 and slope[0] == 0.0
+    assert force[1] == pytest.approx(-50.0, rel=1e-3) and slope[1] < 0.0
