@@ -87,7 +87,15 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     -------
     ndarray, shape (...)
         Force opposing forward motion, N.
+
+    Raises
+    ------
+    ConfigError
+        ``mass_kg`` not a finite real number > 0 (a negative mass gave a grade force that
+        pushes uphill, NaN a NaN force, ``True`` a 1 kg vehicle).
     """
+    config_numbers("grade_resistance_n", mass_kg=mass_kg)
+    config_positive("grade_resistance_n", mass_kg=mass_kg)
     return mass_kg * G_M_S2 * np.sin(np.asarray(pitch_rad, dtype=float))
 
 

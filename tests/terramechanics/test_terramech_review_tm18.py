@@ -15,7 +15,7 @@ from terrain.terramechanics import (G_M_S2, TERRAIN_NAMES, BurckhardtCurve, Jano
                                     soil_resistance_coefficient, steady_slip,
                                     traction_coefficient, traction_curve_and_slope,
                                     traction_peak)
-from terrain.terramechanics.resistance import lateral_force_and_slope
+from terrain.terramechanics.resistance import grade_resistance_n, lateral_force_and_slope
 from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip
 
 
@@ -164,3 +164,10 @@ def test_coulomb_lateral_friction_of_a_negatively_loaded_contact_is_none(load):
     force, slope = lateral_force_and_slope(0.5, np.array([load, 100.0]), np.array([0.1, 0.1]))
     assert force[0] == 0.0 and slope[0] == 0.0
     assert force[1] == pytest.approx(-50.0, rel=1e-3) and slope[1] < 0.0
+
+
+@pytest.mark.parametrize("mass", [-50.0, 0.0, float("nan"), float("inf"), True, "50"])
+def test_grade_resistance_refuses_a_mass_that_is_no_mass(mass):
+    # -50 kg climbing 0.1 rad gave -48.95 N (a grade that pushes uphill), NaN a NaN force
+    with pytest.raises(ConfigError, match="mass_kg"):
+        grade_resistance_n(mass, 0.1)
