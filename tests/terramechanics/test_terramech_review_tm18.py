@@ -171,3 +171,24 @@ def test_grade_resistance_refuses_a_mass_that_is_no_mass(mass):
     # -50 kg climbing 0.1 rad gave -48.95 N (a grade that pushes uphill), NaN a NaN force
     with pytest.raises(ConfigError, match="mass_kg"):
         grade_resistance_n(mass, 0.1)
+
+
+def test_husky_hysteresis_warns_between_the_no_load_and_the_traction_current():
+    # SNOW at 0.5 m/s: no-load 1 A, with the traction 2.461 A; 2.4 A buys torque, but less
+    # than the traction needs (mutant 'torque < 0' returned a negative hysteresis)
+    with pytest.warns(DataWarning, match="current_a 2.4 A"):
+        assert husky_hysteresis_for_current(get_terrain("SNOW"), 2.4, 0.5) == 0.0
+
+
+def test_a_tie_between_drive_and_lateral_moments_does_not_spin():
+    # 'spinning needs the moment of the longitudinal forces to exceed the lateral one'
+    from terrain.terramechanics import can_turn_in_place, traction_peak
+    from terrain.vehicles import ContactGeometry
+    geometry = ContactGeometry(np.array([[1.0, 1.0], [1.0, -1.0], [-1.0, 1.0], [-1.0, -1.0]]),
+                               np.array([0, 1, 0, 1]), np.full(4, 0.25), False, 0.165,
+                               ("left", "right"))
+    curve = JanosiCurve(0.5, 0.01)
+    mu = traction_peak(curve).mu_max
+    for lateral, spins in ((mu, False), (0.99 * mu, True)):
+        terrain = TerrainParams("X", curve, 0.0, 0.0, lateral, 0.0, 0.0, 1.0, "test")
+        assert can_turn_in_place(geometry, terrain) is spins
