@@ -48,7 +48,8 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from terrain.errors import ConfigError, config_fraction, config_numbers, config_positive
+from terrain.errors import (ConfigError, DataFormatError, config_fraction, config_numbers,
+                            config_positive)
 
 
 class CurveCoefficients(NamedTuple):
@@ -669,6 +670,11 @@ def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.n
     -------
     ndarray, shape (...)
         ``mu`` (dimensionless), odd in ``slip``.
+
+    Raises
+    ------
+    DataFormatError
+        A slip that is not a number or a numeric array (:func:`traction_curve_and_slope`).
     """
     return traction_curve_and_slope(curve, slip)[0]
 
@@ -689,8 +695,19 @@ def traction_curve_and_slope(curve: TractionCurve, slip: np.ndarray | float
     mu : ndarray, shape (...)
     dmu_ds : ndarray, shape (...)
         Zero outside [-1, 1] (the slip is saturated there).
+
+    Raises
+    ------
+    DataFormatError
+        A slip that is not a number or a numeric (integer or float) array: a boolean was
+        taken as full slip, text was parsed ('0.1') or a bare ValueError ('abc'), None a
+        silent NaN.
     """
-    s_raw = np.asarray(slip, dtype=float)
+    s_raw = np.asarray(slip)
+    if s_raw.dtype.kind not in "iuf":
+        raise DataFormatError(f"traction_curve_and_slope: slip must be a number or a numeric "
+                              f"array, got {slip!r} (dtype {s_raw.dtype})")
+    s_raw = s_raw.astype(float, copy=False)
     s = np.clip(s_raw, -1.0, 1.0)
     mu, dmu = curve.coefficients(np.abs(s), 0.0)[:2]
     dmu = np.where(np.abs(s_raw) > 1.0, 0.0, dmu)

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import ConfigError, DataWarning
+from terrain.errors import ConfigError, DataFormatError, DataWarning
 from terrain.terramechanics import (G_M_S2, TERRAIN_NAMES, BurckhardtCurve, JanosiCurve,
                                     TerrainParams, calibrate_janosi, get_terrain,
                                     husky_hysteresis_for_current, sae_slip,
@@ -192,3 +192,18 @@ def test_a_tie_between_drive_and_lateral_moments_does_not_spin():
     for lateral, spins in ((mu, False), (0.99 * mu, True)):
         terrain = TerrainParams("X", curve, 0.0, 0.0, lateral, 0.0, 0.0, 1.0, "test")
         assert can_turn_in_place(geometry, terrain) is spins
+
+
+@pytest.mark.parametrize("slip", [True, np.array([True, False]), "0.1", "abc", None,
+                                  [0.1, None]])
+def test_traction_refuses_a_slip_that_is_no_number(slip):
+    # True was full slip (asphalt mu(1) = 0.76), '0.1' was parsed, 'abc' a bare ValueError
+    # and None a silent NaN
+    with pytest.raises(DataFormatError, match="slip"):
+        traction_curve_and_slope(get_terrain("ASPHALT").curve, slip)
+
+
+def test_traction_takes_integer_and_float_slips():
+    curve = get_terrain("ASPHALT").curve
+    assert traction_coefficient(curve, np.array([0, 1])) == pytest.approx(
+        traction_coefficient(curve, np.array([0.0, 1.0])))
