@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import asdict, dataclass, field
+from collections.abc import Iterable
 from typing import Any, Callable, Mapping, Sequence
 
 import numpy as np
@@ -77,7 +78,8 @@ class AuditSettings:
     Raises
     ------
     ConfigError
-        A sweep factor that is not a finite number >= 0, or a replay output cut-off
+        ``sweep_factors`` not a sequence (one number, text), a sweep factor that is not a
+        finite number >= 0, or a replay output cut-off
         (``replay.output_cutoff_hz``) other than the IMU's (``frames.imu_cutoff_hz``).
     """
 
@@ -96,7 +98,8 @@ class AuditSettings:
         Raises
         ------
         ConfigError
-            A factor NaN, infinite, negative or not a number, ``pooled`` not ``True`` or
+            ``sweep_factors`` one number or text instead of a sequence, a factor NaN,
+            infinite, negative or not a number, ``pooled`` not ``True`` or
             ``False`` (the text ``"no"`` of a config file fitted the pooled terrain), or
             the replay's predictions and the IMU low-passed at different cut-offs (the
             report says they share one: a replay at 0.5 Hz against a gyro at 2 Hz put the
@@ -224,7 +227,11 @@ class AuditResult:
 def _check_factors(owner: str, factors: Sequence[float]) -> None:
     """Lateral-friction multipliers must be finite and >= 0: NaN stopped the replay with a
     bare ValueError, and a negative factor replayed a friction that pushes the tyre along its
-    own slip."""
+    own slip; one number (or text) in place of the sequence was a bare TypeError (or read
+    letter by letter)."""
+    if isinstance(factors, (str, bytes)) or not isinstance(factors, Iterable):
+        raise ConfigError(f"{owner}: the factors must be a sequence of numbers such as "
+                          f"(0.5, 1.0, 2.0), got {factors!r}")
     config_positive(owner, allow_zero=True, **indexed("factors", factors))
 
 
@@ -619,7 +626,8 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     Raises
     ------
     ConfigError
-        ``terrain`` is not in the catalogue, or a factor is not a finite number >= 0.
+        ``terrain`` is not in the catalogue, ``factors`` not a sequence (one number, text),
+        or a factor is not a finite number >= 0.
     """
     from dataclasses import replace
 
