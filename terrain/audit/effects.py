@@ -76,6 +76,7 @@ wheel-speed quantum alone can produce in a steady spin) is not supported, whatev
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Callable, Mapping, Sequence
@@ -84,8 +85,8 @@ import numpy as np
 from scipy.ndimage import median_filter
 
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
-from terrain.errors import (ConfigError, TerrainError, config_integer, config_positive,
-                            duplicated)
+from terrain.errors import (ConfigError, TerrainError, config_integer, config_numbers,
+                            config_positive, duplicated, indexed)
 from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
 
@@ -276,11 +277,17 @@ class EffectSettings:
             A rate scale, ratio or time not finite and > 0 (``immobile_ratio`` also <= 1);
             ``min_pitch_spread_rad`` or ``min_rate_contrast`` not finite and >= 0; an
             iteration or sample count not an integer >= 1; a threshold quantile outside
-            (0, 1); a ``negligible`` entry that is not a ``(name, floor)`` pair, names an
+            (0, 1) or not a number (text, a boolean); ``negligible`` or
+            ``threshold_quantiles`` one value (a number, text) instead of a sequence; a
+            ``negligible`` entry that is not a ``(name, floor)`` pair, names an
             effect outside :data:`EFFECT_VOCABULARY` or one already named (a misspelt name
             left that effect without a floor, a repeated one kept the last floor), or a
             floor not finite and >= 0.
         """
+        for name in ("negligible", "threshold_quantiles"):
+            value = getattr(self, name)
+            if isinstance(value, (str, bytes)) or not isinstance(value, Iterable):
+                raise ConfigError(f"EffectSettings.{name} must be a sequence, got {value!r}")
         for entry in self.negligible:
             if not (isinstance(entry, (tuple, list)) and len(entry) == 2):
                 raise ConfigError(f"EffectSettings.negligible entries must be (effect, floor) "
@@ -305,6 +312,8 @@ class EffectSettings:
         for name in ("robust_iterations", "max_alternations", "min_turn_samples",
                      "min_straight_samples", "min_quiet_samples"):
             config_integer(f"EffectSettings.{name}", getattr(self, name), 1)
+        config_numbers("EffectSettings",
+                       **indexed("threshold_quantiles", self.threshold_quantiles))
         if not self.threshold_quantiles or not all(
                 0.0 < float(q) < 1.0 for q in self.threshold_quantiles):
             raise ConfigError(f"EffectSettings.threshold_quantiles must be quantiles in "
