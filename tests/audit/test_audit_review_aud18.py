@@ -184,3 +184,18 @@ def test_a_missing_measurement_is_left_out_of_the_statistics_not_counted():
                             "replay": [0.0, 0.0, 2.0, 4.0]})
     row = residual_statistics(samples, "ASPHALT").iloc[0]
     assert row["n"] == 3 and row["rmse"] == 1.0 and row["bias"] == 1.0
+
+
+def test_immobilised_on_the_replays_mobile_model_is_not_judged_by_the_replays_chi():
+    # chi_mobile < 1 is a wheel radius, track width or gyro scale error only when the mobile
+    # model is the kinematic one fitted to the gyro; with the replay as the mobile model the
+    # chi is the simulator's own, which the immobilised fit did not choose
+    from terrain.audit.effects import YawParams
+    from terrain.audit.selection import unphysical
+
+    replayed = YawParams(kinematic=False, inverse_chi=1.25, immobilised=True, fraction=0.3,
+                         chi_replay=0.95)
+    assert replayed.chi == 0.95 and unphysical("immobilised", replayed) is None
+    kinematic = YawParams(kinematic=True, inverse_chi=1.25, immobilised=True, fraction=0.3,
+                          chi_replay=1.3)
+    assert "mobile chi = 0.8 < 1" in unphysical("immobilised", kinematic)
