@@ -257,11 +257,15 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
         gain_hi`` (gain = ``1 - rmse_new / rmse_ref``, NaN where ``rmse_ref`` is 0; the
         interval NaN where one run holds every sample, or one run per terrain in the
         ``pooled`` rows: resampling says nothing there; the ``pooled`` rows resample runs
-        within each terrain). A
-        signal and scope without any sample (e.g. ``stop`` on runs that never stop) gets
-        no row; ``n_runs`` counts the runs with samples in it.
+        within each terrain; runs are resampled in run-id order, so the order in which
+        they are listed does not move the interval). A signal and scope without any sample
+        (e.g. ``stop`` on runs that never stop) gets no row; ``n_runs`` counts the runs with
+        samples in it.
     """
     rng = np.random.default_rng(settings.seed)
+    # the resamples draw row positions: in run-id order (stable, each run's rows kept in
+    # theirs), the same runs listed in another order get the same interval
+    per_run = per_run.sort_values("run_id", kind="stable")
     rows = []
     groups = [(t, per_run[per_run.terrain == t]) for t in sorted(per_run.terrain.unique())]
     groups.append((pooled, per_run))

@@ -199,3 +199,26 @@ def test_immobilised_on_the_replays_mobile_model_is_not_judged_by_the_replays_ch
     kinematic = YawParams(kinematic=True, inverse_chi=1.25, immobilised=True, fraction=0.3,
                           chi_replay=1.3)
     assert "mobile chi = 0.8 < 1" in unphysical("immobilised", kinematic)
+
+
+def test_the_physics_gain_interval_does_not_depend_on_the_order_of_the_runs():
+    # the run-bootstrap drew row positions, so the same runs listed in another order
+    # (another folder listing, a caller's own list) got another interval: reversed, the
+    # interval of 6 asphalt runs moved from [-0.143, 0.342] to [-0.180, 0.319]
+    from terrain.audit.physics import PhysicsComparisonSettings, gain_table
+
+    rng = np.random.default_rng(0)
+    per_run = pd.DataFrame([
+        {"run_id": f"x/{t}/{k:02d}", "terrain": t, "signal": s, "scope": "moving", "n": 100,
+         "sse_ref": rng.uniform(1, 10), "sse_new": rng.uniform(1, 10)}
+        for t in ("ASPHALT", "GRASS") for k in range(4) for s in ("wz", "cur")])
+    settings = PhysicsComparisonSettings(n_bootstrap=200)
+    want = gain_table(per_run, settings)
+    runs = per_run.run_id.unique()
+    for seed in range(3):    # the runs in another order, each run's rows as per_run_errors
+        order = np.random.default_rng(seed).permutation(runs)
+        shuffled = pd.concat([per_run[per_run.run_id == r] for r in order], ignore_index=True)
+        got = gain_table(shuffled, settings)
+        key = ["terrain", "signal", "scope"]
+        pd.testing.assert_frame_equal(got.sort_values(key).reset_index(drop=True),
+                                      want.sort_values(key).reset_index(drop=True))
