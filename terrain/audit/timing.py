@@ -31,7 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, DataFormatError, config_positive
 
 
 @dataclass(frozen=True)
@@ -167,6 +167,20 @@ class LagTrack:
                 "identifiable": True}
 
 
+def _check_series(owner: str, t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray,
+                  wz: np.ndarray, empty_stretch: bool = False) -> None:
+    """Refuse an empty record or a series whose length is not its clock's (numpy's bare
+    IndexError before), naming the array; with ``empty_stretch`` an empty ``t_s`` is a
+    stretch without data (a window inside a timestamp gap), not usable but no error."""
+    for name, times, values, values_name in (("t_s", t_s, x, "x"),
+                                             ("t_imu_s", t_imu_s, wz, "wz")):
+        if len(times) == 0 and not (empty_stretch and name == "t_s"):
+            raise DataFormatError(f"{owner}: {name} is empty: no record to align")
+        if len(values) != len(times):
+            raise DataFormatError(f"{owner}: {values_name} has {len(values)} samples, its "
+                                  f"clock {name} {len(times)}")
+
+
 def best_lag(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: np.ndarray,
              settings: LagSettings = LagSettings()) -> tuple[float, float, float]:
     """Best lag of one stretch of data.
@@ -192,7 +206,14 @@ def best_lag(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: np.ndarray
         R^2 of the regression ``wz(t - lag) = a x(t) + c``.
     slope : float
         ``a`` at the best lag.
+
+    Raises
+    ------
+    DataFormatError
+        ``t_imu_s`` empty, or ``x`` (``wz``) not as long as ``t_s`` (``t_imu_s``); an empty
+        ``t_s`` (a window inside a gap) is a stretch that is not usable.
     """
+    _check_series("best_lag", t_s, x, t_imu_s, wz, empty_stretch=True)
     lags = np.arange(-settings.max_lag_s, settings.max_lag_s + 1e-9, settings.lag_step_s)
     # samples whose IMU time stays inside the IMU record for every candidate lag
     ok = (t_s - settings.max_lag_s >= t_imu_s[0]) & (t_s + settings.max_lag_s <= t_imu_s[-1])
@@ -243,7 +264,14 @@ def estimate_lag_track(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: 
     Returns
     -------
     LagTrack
+
+    Raises
+    ------
+    DataFormatError
+        ``t_s`` or ``t_imu_s`` empty, or ``x`` (``wz``) not as long as ``t_s``
+        (``t_imu_s``).
     """
+    _check_series("estimate_lag_track", t_s, x, t_imu_s, wz)
     t0, t1 = float(t_s[0]), float(t_s[-1])
     if t1 - t0 <= settings.window_s:
         starts = np.array([t0])

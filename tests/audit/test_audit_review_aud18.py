@@ -222,3 +222,33 @@ def test_the_physics_gain_interval_does_not_depend_on_the_order_of_the_runs():
         key = ["terrain", "signal", "scope"]
         pd.testing.assert_frame_equal(got.sort_values(key).reset_index(drop=True),
                                       want.sort_values(key).reset_index(drop=True))
+
+
+@pytest.mark.parametrize("which", ["best_lag", "estimate_lag_track"])
+@pytest.mark.parametrize("n, m, nx, field", [
+    (0, 50, 0, "t_s"), (50, 0, 50, "t_imu_s"), (50, 50, 49, "x"), (50, 50, 50, "wz")])
+def test_the_lag_refuses_empty_or_mismatched_series_naming_them(which, n, m, nx, field):
+    # an empty wheel or IMU record was numpy's bare "IndexError: index 0 is out of bounds
+    # for axis 0 with size 0", x one sample short a boolean-index IndexError
+    from terrain.audit import timing
+    from terrain.errors import DataFormatError
+
+    t = np.arange(n) * 0.15
+    t_imu = np.arange(m) * 0.01
+    wz = np.zeros(m - 1 if field == "wz" else m)
+    if which == "best_lag" and field == "t_s":
+        # a window inside a timestamp gap holds no wheel sample: not usable, no error
+        assert np.isnan(timing.best_lag(t, np.zeros(nx), t_imu, wz)).all()
+        return
+    with pytest.raises(DataFormatError, match=rf"{which}: {field}"):
+        getattr(timing, which)(t, np.zeros(nx), t_imu, wz)
+
+
+def test_a_window_inside_a_long_gap_is_examined_and_not_used():
+    from terrain.audit.timing import LagSettings, estimate_lag_track
+
+    s = LagSettings(window_s=10.0, step_s=5.0, max_lag_s=0.5, lag_step_s=0.05)
+    t = np.r_[np.arange(0.0, 30.0, 0.15), np.arange(60.0, 90.0, 0.15)]   # 30 s gap
+    t_imu = np.arange(0.0, 90.0, 0.01)
+    track = estimate_lag_track(t, np.sin(0.7 * t), t_imu, np.sin(0.7 * t_imu), s)
+    assert track.n_windows > len(track.lags_s) and np.all(np.abs(track.lags_s) < 0.03)
