@@ -36,7 +36,8 @@ from typing import Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import DataFormatError, ShapeError, duplicated
+from terrain.errors import (DataFormatError, EstimationError, ShapeError, duplicated,
+                            refuse_booleans)
 from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
                                            skid_steer_on_windows)
 from terrain.run import TIME
@@ -123,6 +124,8 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     terrain.errors.DataFormatError
         ``channels`` lacks ``vel_l``, ``vel_r`` or ``wz``, or names one of them twice (the
         channels are read by position).
+    terrain.errors.EstimationError
+        ``X`` holds booleans (a mask: cast, they ran the filter on speeds of 0 and 1 m/s).
     terrain.errors.ShapeError, terrain.errors.NonFiniteInputError
         ``X`` not 3-D, or a non-finite sample.
     """
@@ -135,6 +138,7 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     if twice:      # the first of two was read, the other ignored without a word
         raise DataFormatError(f"EKF channels: {twice} named twice among the window channels "
                               f"{names}", None, twice[0])
+    refuse_booleans(EstimationError, "window_ekf_channels", X=X)
     X = np.asarray(X, dtype=float)
     if X.ndim != 3 or X.shape[1] != len(names):
         raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")
