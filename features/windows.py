@@ -182,7 +182,14 @@ def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray
         (no-slip) yaw rate ``yaw_rate_wheels = vel_diff / track_m`` (rad/s;
         seeds/000_f24201ff985633bf.txt, Tazzari et al., eq. 2 with ``2d = track_m``), each
         ``(n,)``, in the order of :data:`DERIVED_WHEEL_CHANNELS`.
+
+    Raises
+    ------
+    ConfigError
+        ``track_m`` not a finite number > 0 (0 made the yaw rate NaN or infinite, a negative
+        track turned it the other way, NaN made it NaN, all without a word).
     """
+    config_positive("derived_wheel_arrays", track_m=track_m)
     vel_diff = vel_r - vel_l
     return {"vel_mean": 0.5 * (vel_l + vel_r), "vel_diff": vel_diff, "cur_sum": cur_l + cur_r,
             "cur_diff": cur_r - cur_l, "yaw_rate_wheels": vel_diff / track_m}
@@ -203,6 +210,11 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     pandas.DataFrame
         A copy of ``frame`` with the channels of :func:`derived_wheel_arrays` added;
         ``frame`` itself, unchanged, when a wheel channel is missing.
+
+    Raises
+    ------
+    ConfigError
+        ``track_m`` not a finite number > 0 (:func:`derived_wheel_arrays`).
     """
     if not set(WHEEL_CHANNELS) <= set(frame.columns):
         return frame
