@@ -3,9 +3,13 @@
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from features.ekf_signals import window_ekf_channels
+from features.windows import WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError, EstimationError
+from terrain.run import IMU_CHANNELS, TIME, Run
 
 
 def test_window_ekf_channels_refuse_a_boolean_mask_for_the_signals():
@@ -37,3 +41,98 @@ def test_derived_wheel_channels_of_a_valid_track_are_unchanged():
     assert out["yaw_rate_wheels"][0] == pytest.approx(0.4)
     assert out["vel_mean"][0] == pytest.approx(0.3)
     assert out["cur_diff"][0] == pytest.approx(2.0)
+
+
+# --------------------------------------------------------------------------- properties
+
+def _run(run_id: str, duration_s: float, seed: int, hole=None) -> Run:
+    """IMU at 100 Hz and wheels at 10 Hz over [0, duration_s] s, random values; ``hole``
+    (a, b) s with no wheel sample strictly inside (ftr15's test run)."""
+    rng = np.random.default_rng(seed)
+    ti = np.arange(int(round(duration_s * 100)) + 1) / 100.0
+    imu = pd.DataFrame({TIME: ti, **{c: rng.standard_normal(ti.size) for c in IMU_CHANNELS}})
+    tw = np.arange(int(round(duration_s * 10)) + 1) / 10.0
+    if hole is not None:
+        tw = tw[(tw <= hole[0]) | (tw >= hole[1])]
+    wheels = pd.DataFrame({TIME: tw, "vel_l": 0.5 + 0.05 * rng.standard_normal(tw.size),
+                           "vel_r": 0.6 + 0.05 * rng.standard_normal(tw.size),
+                           "cur_l": 5.0 + rng.standard_normal(tw.size),
+                           "cur_r": 6.0 + rng.standard_normal(tw.size)})
+    return Run(run_id=run_id, dataset="t", terrain="ICE", streams={"imu": imu, "wheels": wheels},
+               source="in-memory test run")
+
+
+def _shifted(run, shift_s):
+    streams = {k: v.assign(t_s=v["t_s"] + shift_s) for k, v in run.streams.items()}
+    return Run(run_id=run.run_id, dataset=run.dataset, terrain=run.terrain, streams=streams,
+               source=run.source)
+
+
+@given(st.floats(2.5, 7.0), st.one_of(st.none(), st.floats(0.5, 1.5)),
+       st.floats(-500.0, 5000.0), st.sampled_from([None, 0.5, 1.5]),
+       st.sampled_from([None, 2.0]), st.integers(0, 2 ** 16))
+@settings(max_examples=15, deadline=None)
+def test_windows_of_a_run_do_not_depend_on_where_its_clock_starts(duration, hole, shift,
+                                                                  hop_s, partition_s, seed):
+    """A run whose every stream's clock is shifted by the same time gives the same windows
+    (to round-off of the interpolation), the same counts, and window bounds shifted by it."""
+    run = _run("t/X/0", duration, seed, None if hole is None else (hole, hole + 0.6))
+    config = WindowConfig(window_s=1.0, hop_s=hop_s, rate_hz=20.0, partition_s=partition_s)
+    a = make_windows([run], "all", config)
+    b = make_windows([_shifted(run, shift)], "all", config)
+    assert len(a) == len(b)
+    np.testing.assert_allclose(b.X, a.X, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(b.t_start_s - shift, a.t_start_s, atol=1e-6)
+    np.testing.assert_allclose(b.t_end_s - shift, a.t_end_s, atol=1e-6)
+    assert list(a.groups) == list(b.groups)
+    for key in ("windows", "dropped_gap", "empty_gap", "dropped_unsteady"):
+        assert a.counts[key] == b.counts[key]
+    for key in ("partition_tail_s", "window_tail_s", "between_windows_s"):
+        assert a.counts[key] == pytest.approx(b.counts[key])
+
+
+def _window_set(n_runs, per_run):
+    ids = np.repeat([f"r{i}" for i in range(n_runs)], per_run)
+    n = ids.size
+    counts = {"windows": n, "dropped_gap": 3,
+              "per_run": {f"r{i}": {"windows": per_run, "dropped_gap": 1}
+                          for i in range(n_runs)}}
+    return WindowSet(X=np.arange(n * 2 * 4, dtype=float).reshape(n, 2, 4), channels=("a", "b"),
+                     run_ids=ids.astype(object), groups=ids.astype(object),
+                     labels=np.full(n, "ICE", dtype=object),
+                     t_start_s=np.arange(n, dtype=float), t_end_s=np.arange(n) + 1.0,
+                     rate_hz=4.0, counts=counts)
+
+
+@given(st.integers(1, 4), st.integers(1, 5), st.data())
+@settings(max_examples=60, deadline=None)
+def test_a_subset_keeps_its_counts_consistent_with_its_windows(n_runs, per_run, data):
+    """After any selection (mask or indices, repeated, negative or none) and a subset of the
+    subset: counts['windows'] is the windows held, per run too; per run, the windows held
+    once plus those not selected make the windows cut; what windowing dropped is kept."""
+    ws = _window_set(n_runs, per_run)
+    n = len(ws)
+    index = st.integers(-n, n - 1)
+    sel = data.draw(st.one_of(st.lists(st.booleans(), min_size=n, max_size=n).map(np.array),
+                              st.lists(index, max_size=2 * n).map(
+                                  lambda v: np.array(v, dtype=int))))
+    sub = ws.subset(sel)
+    # a subset of the subset, by a mask (its rows once each)
+    sub2 = sub.subset(np.arange(len(sub)) % 2 == 0) if len(set(sub.t_start_s)) == len(sub) \
+        else sub
+    for s in (sub, sub2):
+        assert s.counts["windows"] == len(s)
+        assert sum(e["windows"] for e in s.counts["per_run"].values()) == len(s)
+        for rid, entry in s.counts["per_run"].items():
+            held = s.run_ids == rid
+            assert entry["windows"] == int(held.sum())
+            assert entry["dropped_gap"] == 1
+            unique = len(set(s.t_start_s[held]))
+            assert unique + entry["not_selected"] == per_run
+        assert len(set(s.t_start_s)) + s.counts["not_selected"] == n
+        assert s.counts["dropped_gap"] == 3
+        # each window keeps its own samples, run, group, label and bounds
+        rows = s.t_start_s.astype(int)
+        np.testing.assert_array_equal(s.X, ws.X[rows])
+        assert list(s.run_ids) == list(ws.run_ids[rows])
+    assert ws.counts["windows"] == n and "not_selected" not in ws.counts
