@@ -30,7 +30,7 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_positive, first_items, listed
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run
 from terrain.sim.sensors import SensorSettings
@@ -250,8 +250,23 @@ def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.
     Returns
     -------
     pandas.DataFrame, shape (n, len(terrains))
+
+    Raises
+    ------
+    ConfigError
+        ``labels`` is one text (not a sequence of labels), or a label is not among
+        ``terrains`` (its row would hold no probability, refused later by the physics slip
+        as "sum to 0" naming neither label nor window).
     """
+    if isinstance(labels, str):
+        raise ConfigError(f"one_hot_probabilities needs a sequence of labels, got the text "
+                          f"{labels!r}")
     lab = np.asarray(labels, dtype=object)
+    outside = ~np.isin(lab, np.asarray(list(terrains), dtype=object))
+    if outside.any():
+        raise ConfigError(f"one_hot_probabilities: label(s) {listed(pd.unique(lab[outside]))} "
+                          f"of {first_items(np.flatnonzero(outside), word='window')} not "
+                          f"among the terrains {listed(terrains)}")
     return pd.DataFrame({t: (lab == t).astype(float) for t in terrains})
 
 

@@ -136,3 +136,18 @@ def test_a_subset_keeps_its_counts_consistent_with_its_windows(n_runs, per_run, 
         np.testing.assert_array_equal(s.X, ws.X[rows])
         assert list(s.run_ids) == list(ws.run_ids[rows])
     assert ws.counts["windows"] == n and "not_selected" not in ws.counts
+
+
+def test_one_hot_probabilities_refuse_a_label_outside_the_terrains():
+    # a row of zeros is no probability: the physics slip refused it later as 'terrain
+    # probabilities sum to 0 on some rows', naming neither the label nor the window
+    from features.slip_features import one_hot_probabilities
+
+    with pytest.raises(ConfigError, match=r"label\(s\) \['MUD'\].*window 1.*'ICE', 'SNOW'"):
+        one_hot_probabilities(["ICE", "MUD", "SNOW"], ["ICE", "SNOW"])
+    with pytest.raises(ConfigError, match="sequence of labels.*the text 'ICE'"):
+        one_hot_probabilities("ICE", ["ICE", "SNOW"])
+    out = one_hot_probabilities(np.array(["SNOW", "ICE"], dtype=object), ["ICE", "SNOW"])
+    np.testing.assert_array_equal(out.to_numpy(), [[0.0, 1.0], [1.0, 0.0]])
+    assert list(out.columns) == ["ICE", "SNOW"]
+    assert one_hot_probabilities([], ["ICE"]).shape == (0, 1)
