@@ -303,8 +303,11 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     Raises
     ------
     ConfigError
-        A run of the window set is not among ``runs`` or has no ``truth`` stream.
+        A run of the window set is not among ``runs`` or has no ``truth`` stream, or
+        ``track_m`` is not a finite number > 0 (0 made ``chi`` infinite or NaN, a negative
+        track made it negative).
     """
+    config_positive("slip_targets", track_m=track_m)
     by_id: Mapping[str, Run] = {r.run_id: r for r in runs}
     out = pd.DataFrame(index=np.arange(len(ws)),
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],

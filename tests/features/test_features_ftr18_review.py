@@ -151,3 +151,12 @@ def test_one_hot_probabilities_refuse_a_label_outside_the_terrains():
     np.testing.assert_array_equal(out.to_numpy(), [[0.0, 1.0], [1.0, 0.0]])
     assert list(out.columns) == ["ICE", "SNOW"]
     assert one_hot_probabilities([], ["ICE"]).shape == (0, 1)
+
+
+@pytest.mark.parametrize("track", [0.0, -0.5708, float("nan"), True])
+def test_slip_targets_refuse_a_track_that_is_not_a_positive_length(track):
+    # track 0 gave chi inf (NaN at no wheel speed difference), a negative one chi < 0
+    from features.slip_features import slip_targets
+
+    with pytest.raises(ConfigError, match="slip_targets.track_m"):
+        slip_targets([], _window_set(1, 2), track)
