@@ -160,3 +160,33 @@ def test_slip_targets_refuse_a_track_that_is_not_a_positive_length(track):
 
     with pytest.raises(ConfigError, match="slip_targets.track_m"):
         slip_targets([], _window_set(1, 2), track)
+
+
+@given(st.integers(1, 4), st.integers(1, 40), st.integers(0, 2 ** 32 - 1),
+       st.sampled_from([0.0, 9.81, -1e3]), st.booleans())
+@settings(max_examples=60, deadline=None)
+def test_the_compiled_statistics_equal_a_numpy_and_scipy_reference(m, n, seed, offset,
+                                                                   constant_row):
+    """The one compiled pass of calculators.statistics gives NumPy's mean, std, rms, min,
+    max and mean |diff| and scipy's biased skewness and excess kurtosis (0 for a constant
+    row) of each row, for any row length (one sample: mean |diff| NaN), offset and values
+    on a 1/8 grid (so a row varies by far more than the constant-window threshold)."""
+    from scipy import stats as sps
+
+    from features.calculators import statistics
+
+    rng = np.random.default_rng(seed)
+    x = offset + rng.integers(-800, 800, size=(m, 2, n)) / 8.0
+    if constant_row:
+        x[0, 1] = offset + 1.25
+    names = ("mean", "std", "skewness", "kurtosis", "rms", "min", "max", "mean_abs_diff")
+    got = statistics(x, names)
+    d = x - x.mean(axis=-1, keepdims=True)
+    varies = (d ** 2).mean(axis=-1) > 1e-12
+    with np.errstate(all="ignore"):
+        skew = np.where(varies, sps.skew(x, axis=-1, bias=True), 0.0)
+        kurt = np.where(varies, sps.kurtosis(x, axis=-1, bias=True), 0.0)
+    ref = np.stack([x.mean(-1), x.std(-1), skew, kurt, np.sqrt((x ** 2).mean(-1)), x.min(-1),
+                    x.max(-1), np.abs(np.diff(x, axis=-1)).mean(-1) if n > 1
+                    else np.full(x.shape[:-1], np.nan)], axis=-1)
+    np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-9 * (1 + abs(offset)))
