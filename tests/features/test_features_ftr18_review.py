@@ -9,7 +9,8 @@ from hypothesis import strategies as st
 from features.ekf_signals import window_ekf_channels
 from features.windows import WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError, EstimationError
-from terrain.run import IMU_CHANNELS, TIME, Run
+from terrain.run import Run
+from test_features_ftr15_review import _run
 
 
 def test_window_ekf_channels_refuse_a_boolean_mask_for_the_signals():
@@ -44,22 +45,7 @@ def test_derived_wheel_channels_of_a_valid_track_are_unchanged():
 
 
 # --------------------------------------------------------------------------- properties
-
-def _run(run_id: str, duration_s: float, seed: int, hole=None) -> Run:
-    """IMU at 100 Hz and wheels at 10 Hz over [0, duration_s] s, random values; ``hole``
-    (a, b) s with no wheel sample strictly inside (ftr15's test run)."""
-    rng = np.random.default_rng(seed)
-    ti = np.arange(int(round(duration_s * 100)) + 1) / 100.0
-    imu = pd.DataFrame({TIME: ti, **{c: rng.standard_normal(ti.size) for c in IMU_CHANNELS}})
-    tw = np.arange(int(round(duration_s * 10)) + 1) / 10.0
-    if hole is not None:
-        tw = tw[(tw <= hole[0]) | (tw >= hole[1])]
-    wheels = pd.DataFrame({TIME: tw, "vel_l": 0.5 + 0.05 * rng.standard_normal(tw.size),
-                           "vel_r": 0.6 + 0.05 * rng.standard_normal(tw.size),
-                           "cur_l": 5.0 + rng.standard_normal(tw.size),
-                           "cur_r": 6.0 + rng.standard_normal(tw.size)})
-    return Run(run_id=run_id, dataset="t", terrain="ICE", streams={"imu": imu, "wheels": wheels},
-               source="in-memory test run")
+# (runs: ftr15's in-memory run, IMU at 100 Hz and wheels at 10 Hz, an optional wheel hole)
 
 
 def _shifted(run, shift_s):
