@@ -35,7 +35,7 @@ from terrain.audit.selection import (EffectResult, GroupResult, SelectionSetting
                                      make_units, select_group, unit_errors, unscored_group)
 from terrain.audit.timing import LagSettings
 from terrain.errors import (ConfigError, DataFormatError, config_flags, config_positive,
-                            indexed)
+                            duplicated, indexed)
 from terrain.run import Run
 from terrain.vehicles import get_vehicle, skid_steer_forward
 from terrain.vehicles.icr import icr_expansion_factor
@@ -73,13 +73,13 @@ class AuditSettings:
         Also fit every run pooled (terrain ``all``) when there are several terrains.
     sweep_factors : tuple of float
         Multipliers of the catalogue lateral friction for the what-if replays
-        (:func:`lateral_friction_sweep`), each finite and >= 0; empty: no sweep.
+        (:func:`lateral_friction_sweep`), each finite, >= 0 and given once; empty: no sweep.
 
     Raises
     ------
     ConfigError
         ``sweep_factors`` not a sequence (one number, text), a sweep factor that is not a
-        finite number >= 0, or a replay output cut-off
+        finite number >= 0 or is given twice, or a replay output cut-off
         (``replay.output_cutoff_hz``) other than the IMU's (``frames.imu_cutoff_hz``).
     """
 
@@ -233,6 +233,9 @@ def _check_factors(owner: str, factors: Sequence[float]) -> None:
         raise ConfigError(f"{owner}: the factors must be a sequence of numbers such as "
                           f"(0.5, 1.0, 2.0), got {factors!r}")
     config_positive(owner, allow_zero=True, **indexed("factors", factors))
+    twice = duplicated([float(f) for f in factors])
+    if twice:   # the same friction replayed twice: identical rows of the what-if table
+        raise ConfigError(f"{owner}: factor(s) {twice} given twice; give each once")
 
 
 def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()
@@ -627,7 +630,7 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     ------
     ConfigError
         ``terrain`` is not in the catalogue, ``factors`` not a sequence (one number, text),
-        or a factor is not a finite number >= 0.
+        or a factor is not a finite number >= 0 or is given twice.
     """
     from dataclasses import replace
 

@@ -24,6 +24,14 @@ def test_sweep_factors_given_as_one_value_are_refused_naming_the_field(factors):
     assert AuditSettings(sweep_factors=()).sweep_factors == ()
 
 
+@pytest.mark.parametrize("factors", [(1.0, 1.0), (0.5, 2.0, 0.5)])
+def test_a_sweep_factor_given_twice_is_refused(factors):
+    # (1.0, 1.0) replayed the same friction twice: two identical rows of the what-if table
+    with pytest.raises(ConfigError, match=r"AuditSettings\.sweep_factors: factor\(s\) "
+                                          r"\[(1\.0|0\.5)\] given twice"):
+        AuditSettings(sweep_factors=factors)
+
+
 def test_the_sweep_refuses_one_factor_given_as_a_number():
     from terrain.audit.core import lateral_friction_sweep
 
