@@ -20,6 +20,7 @@ from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, check_servable_signals, fit_pipeline
 from terrain.models.registry import MODELS, check_dependencies
+from terrain.serving.model import training_steps_s
 from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.tracking import tracked_run
@@ -169,6 +170,8 @@ def main(args: argparse.Namespace) -> int:
         meta = {"model": config.model, "dataset": config.dataset,
                 "vehicle": vehicles[0] if len(vehicles) == 1 else None,
                 "signals": list(config.signals),
+                # a live stream's first steps are judged against its training step
+                "channel_steps_s": training_steps_s(used, ws.channels),
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
         uri = log_model(pipe, ws.channels, window, classes, meta,
                         None if args.no_register else f"terrain-{config.dataset}",

@@ -228,7 +228,7 @@ class RingBuffer:
         return median_step(t)
 
     def usual_step(self, through_s: float | None = None, last: int = 64,
-                   few: int = FEW_STEPS) -> float:
+                   few: int = FEW_STEPS, prior_s: float | None = None) -> float:
         """Usual time step of the stream, the one a gap is judged against, s.
 
         The median of the newest ``last`` steps (:meth:`median_step`, the readers' rule), but
@@ -237,7 +237,10 @@ class RingBuffer:
         stream) made the median 0.385 s, and neither hole, of 4 and 7 usual steps, was a
         gap. The smallest step errs the other way (a jittered short step makes a longer one
         a gap), which flags a window the filter then only predicts over: the conservative
-        side.
+        side. The steps known may all be holes (samples at 0 and 0.615 s, then none until
+        2 s): a ``prior_s`` (the training runs' step of the stream,
+        :func:`terrain.serving.model.training_steps_s`) caps the smallest while few are
+        known.
 
         Parameters
         ----------
@@ -248,6 +251,9 @@ class RingBuffer:
             Samples looked at.
         few : int
             Below this many known steps (through ``through_s``) the smallest step is taken.
+        prior_s : float or None
+            Step expected before any is known, s: below ``few`` known steps the usual step
+            is the smaller of it and the smallest known; None: no expectation.
 
         Returns
         -------
@@ -258,7 +264,8 @@ class RingBuffer:
         if len(t) < 2:
             return float("nan")
         if len(t) - 1 < few:
-            return float(np.diff(t).min())
+            smallest = float(np.diff(t).min())
+            return smallest if prior_s is None else min(smallest, prior_s)
         return median_step(t)
 
     def _newest_through(self, through_s: float | None, last: int) -> np.ndarray:

@@ -16,8 +16,9 @@ import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Iterator, Mapping
+from typing import Any, Iterator, Mapping, Sequence
 
+import numpy as np
 import yaml
 
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig
@@ -114,12 +115,29 @@ class StreamModel:
 
     @property
     def raw_channels(self) -> tuple[str, ...]:
-        """Measured channels the model needs (derived wheel channels need all four wheel
-        channels, see :func:`features.windows.add_derived_channels`)."""
-        raw = [c for c in self.channels if c not in DERIVED_WHEEL_CHANNELS]
-        if any(c in DERIVED_WHEEL_CHANNELS for c in self.channels):
-            raw += [c for c in WHEEL_CHANNELS if c not in raw]
-        return tuple(raw)
+        """Measured channels the model needs (:func:`measured_channels`)."""
+        return measured_channels(self.channels)
+
+
+def measured_channels(channels: Sequence[str]) -> tuple[str, ...]:
+    """Measured channels that windows of ``channels`` are built from.
+
+    Parameters
+    ----------
+    channels : sequence of str
+        Window channels, derived wheel channels included.
+
+    Returns
+    -------
+    tuple of str
+        ``channels`` without the derived wheel channels, plus the four wheel channels they
+        are derived from where one is asked for
+        (:func:`features.windows.add_derived_channels`).
+    """
+    raw = [c for c in channels if c not in DERIVED_WHEEL_CHANNELS]
+    if any(c in DERIVED_WHEEL_CHANNELS for c in channels):
+        raw += [c for c in WHEEL_CHANNELS if c not in raw]
+    return tuple(raw)
 
 
 def model_vehicle(metadata: Mapping[str, Any]) -> str | None:
@@ -167,6 +185,81 @@ def model_track_m(metadata: Mapping[str, Any]) -> float:
     """
     value = metadata.get("track_m")
     return HUSKY_TRACK_M if value is None else float(value)
+
+
+def training_steps_s(runs: Sequence[Run], channels: Sequence[str]) -> dict[str, float]:
+    """Usual sample step of each channel in a model's training runs, s.
+
+    The streaming service judges a stream's first steps against it
+    (:meth:`~terrain.serving.buffers.RingBuffer.usual_step`): before a stream has sent a
+    few steps, the steps it sent may all be holes (samples at 0 and 0.615 s of a 6.5 Hz
+    wheel stream, then none until 2 s), and only a step known beforehand tells them from
+    the stream's rate.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        The training runs.
+    channels : sequence of str
+        Channels of the model's windows (derived wheel channels stand for the wheel
+        channels they are derived from, :func:`measured_channels`).
+
+    Returns
+    -------
+    dict of str to float
+        For each measured channel some run holds, the median over the runs holding it of the median
+        step of the stream holding it (:meth:`Run.rate_hz`), s; channels no run holds are
+        left out.
+
+    Raises
+    ------
+    DataFormatError
+        A stream holding one of ``channels`` has fewer than 2 samples or times out of
+        order (:meth:`Run.rate_hz`).
+    """
+    channels = measured_channels(channels)
+    steps: dict[str, list[float]] = {}
+    for run in runs:
+        for stream, frame in run.streams.items():
+            held = [c for c in channels if c in frame.columns]
+            if held:
+                step = 1.0 / run.rate_hz(stream)
+                for c in held:
+                    steps.setdefault(c, []).append(step)
+    return {c: float(np.median(steps[c])) for c in channels if c in steps}
+
+
+def model_channel_steps_s(metadata: Mapping[str, Any]) -> dict[str, float]:
+    """The training runs' usual sample step of a model's channels, s.
+
+    Parameters
+    ----------
+    metadata : Mapping
+        The model's ``metadata``; its ``channel_steps_s`` (written at training,
+        :func:`training_steps_s`) is a mapping of channel names to positive numbers (s) or
+        absent.
+
+    Returns
+    -------
+    dict of str to float
+        ``metadata["channel_steps_s"]``; empty for a model saved before the key existed or
+        built in memory without it.
+
+    Raises
+    ------
+    ConfigError
+        ``channel_steps_s`` is neither absent, None nor a mapping of names to finite
+        numbers > 0 (a boolean included).
+    """
+    value = metadata.get("channel_steps_s")
+    if value is None:
+        return {}
+    if not isinstance(value, Mapping) or not all(
+            isinstance(c, str) and not isinstance(v, bool) and isinstance(v, (int, float))
+            and math.isfinite(v) and v > 0 for c, v in value.items()):
+        raise ConfigError(f"metadata channel_steps_s must map channel names to steps > 0 "
+                          f"(s), got {value!r}"[:300])
+    return {str(c): float(v) for c, v in value.items()}
 
 
 def imu_rate_note(channels, model_rate_hz: float, run: Run) -> str | None:
@@ -295,7 +388,8 @@ def read_model_metadata(path: str | Path) -> dict:
         (non-empty lists of names), ``window_s`` and ``rate_hz`` (positive numbers, s and
         Hz); ``hop_s`` is a positive number or None (None, as :class:`WindowConfig` reads
         it: windows one window length apart); ``track_m``, where present, a positive number
-        (m, :func:`model_track_m`).
+        (m, :func:`model_track_m`); ``channel_steps_s``, where present, a mapping of
+        channel names to positive numbers (s, :func:`model_channel_steps_s`).
 
     Raises
     ------
@@ -337,6 +431,10 @@ def read_model_metadata(path: str | Path) -> dict:
         WindowConfig(window_s=float(meta["window_s"]), rate_hz=float(meta["rate_hz"]))
     except ConfigError as exc:
         raise ConfigError(f"{mlmodel}: metadata window: {exc}") from None
+    try:
+        model_channel_steps_s(meta)
+    except ConfigError as exc:
+        raise ConfigError(f"{mlmodel}: {exc}") from None
     return dict(meta)
 
 

@@ -29,7 +29,7 @@ from terrain.models.registry import ENSEMBLES, ModelConfig, make_model
 from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
 from terrain.models.weighting import run_shares
 from terrain.run import Run
-from terrain.serving.model import StreamModel
+from terrain.serving.model import StreamModel, training_steps_s
 
 
 def wheel_features(channels: tuple[str, ...], rate_hz: float, short_s: float | None = 2.0,
@@ -354,7 +354,9 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
     StreamModel
         With ``metadata["track_m"]``, the track width (m) its live windows derive the wheel
         yaw rate with, which its wheel physics features use too: the training runs'
-        vehicle's (:func:`features.windows.runs_track_m`).
+        vehicle's (:func:`features.windows.runs_track_m`), and
+        ``metadata["channel_steps_s"]``, the training runs' sample step of each channel (s,
+        :func:`~terrain.serving.model.training_steps_s`).
     """
     window = WindowConfig(window_s=recipe.window_s, hop_s=recipe.train_hop_s,
                           rate_hz=recipe.rate_hz)
@@ -387,7 +389,10 @@ def fit_stream_model(recipe: ModelRecipe, runs: Sequence[Run], seed: int = 0) ->
         weights = ({"classifier__sample_weight": run_balanced_weights(
             labels, np.asarray(ws.run_ids))} if recipe.run_balanced else {})
         pipe.fit(ws.X, labels, **weights)
+    # the training runs' sample steps judge a live stream's first steps
+    steps = training_steps_s(runs, ws.channels)
     return StreamModel(pipe, ws.channels, WindowConfig(window_s=recipe.window_s,
                                                        rate_hz=recipe.rate_hz),
                        tuple(sorted(np.unique(labels).tolist())),
-                       metadata=MappingProxyType({"track_m": track_m}))
+                       metadata=MappingProxyType({"track_m": track_m,
+                                                  "channel_steps_s": steps}))

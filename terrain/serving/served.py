@@ -67,7 +67,8 @@ from terrain.run import TIME
 from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
-                                   load_stream_model, model_vehicle, new_model_directory)
+                                   load_stream_model, model_channel_steps_s, model_vehicle,
+                                   new_model_directory)
 from terrain.serving.replay import replay_run
 from terrain.serving.request import (DEFAULT_VEHICLE, parse_request, planned_decisions,
                                      time_span_s)
@@ -160,7 +161,9 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
         JSON-serialisable settings; ``vehicle`` is the model's vehicle
         (:func:`~terrain.serving.model.model_vehicle`; the readers' default ``husky`` when
         it names none), whose bounds the run-level
-        plausibility rules use.
+        plausibility rules use; ``channel_steps_s`` the training runs' sample step of its
+        channels (:func:`~terrain.serving.model.model_channel_steps_s`; None when the model
+        records none), against which a stream's first steps are judged.
 
     Raises
     ------
@@ -175,7 +178,8 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
                 "reset_windows": int(reset_windows),
                 "min_confidence": float(min_confidence), "max_rows": max_rows,
                 "max_decisions": max_decisions,
-                "vehicle": str(model_vehicle(model.metadata) or DEFAULT_VEHICLE)}
+                "vehicle": str(model_vehicle(model.metadata) or DEFAULT_VEHICLE),
+                "channel_steps_s": model_channel_steps_s(model.metadata) or None}
     check_settings(settings)
     # checked whole numbers; a NumPy integer as Python's, for the JSON of model_config
     settings["max_rows"], settings["max_decisions"] = int(max_rows), int(max_decisions)
@@ -198,6 +202,7 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     """
     check_hop(settings["hop_s"], settings["rate_hz"])
     smoothing_of(settings)
+    model_channel_steps_s(settings)
     config_probability("served settings", min_confidence=settings["min_confidence"])
     for key in ("max_rows", "max_decisions"):
         # a count: a float (2.7 was taken as 2), text, None, NaN or a boolean is refused here
@@ -290,7 +295,10 @@ class ServedStreamModel(PythonModel):
                                  tuple(s["classes"]),
                                  # the service's per-window wheel_speed_units rule needs
                                  # the vehicle (the run-level rules get it in decide)
-                                 metadata={"vehicle": str(s["vehicle"])})
+                                 metadata={"vehicle": str(s["vehicle"]),
+                                           # the first steps of a stream are judged
+                                           # against its training step
+                                           "channel_steps_s": s.get("channel_steps_s")})
         self.targets = TableTargets(self.model.classes,
                                     DesiredSlipConfig(min_confidence=s["min_confidence"]))
         # a request makes at most max_decisions decisions, every one in the answer (a

@@ -88,7 +88,8 @@ from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
 from terrain.serving.intake import DecisionClock, StreamIntake
-from terrain.serving.model import StreamModel, model_track_m, model_vehicle
+from terrain.serving.model import (StreamModel, model_channel_steps_s, model_track_m,
+                                   model_vehicle)
 from terrain.serving.rules import DEFAULT_RULES, SampleRule, time_increasing
 from terrain.serving.smoothing import ForwardFilter
 from terrain.serving.targets import TargetProvider, check_provider
@@ -180,6 +181,11 @@ class StreamService:
         if self._wheel_cols is not None:
             flat += list(DERIVED_WHEEL_CHANNELS)
         self._track_m = model_track_m(model.metadata)   # as the training windows derived
+        # a stream's step in the training runs (its channels' smallest) judges its first
+        # steps, which may all be holes (RingBuffer.usual_step)
+        trained = model_channel_steps_s(model.metadata)
+        self._prior_steps = {s: min(trained[c] for c in ch if c in trained)
+                             for s, ch in self.streams.items() if set(ch) & set(trained)}
         self._x_cols = np.array([flat.index(c) for c in model.channels])
         accel = ("ax", "ay", "az")
         # the accelerometer-units rule needs all three axes; it matters when one is used
@@ -391,7 +397,7 @@ class StreamService:
         w = self.model.window
         lo = t - w.window_s - 2.0 / w.rate_hz
         times, values, steps = [], [], []
-        for buf in self._intake.buffers.values():
+        for name, buf in self._intake.buffers.items():
             ts, vs = buf.since(lo)
             # up to the first sample at or past t, whatever came after it: the IMU's
             # anti-alias filter runs both ways over what is read, so one more sample would
@@ -404,7 +410,7 @@ class StreamService:
             # few samples of one window, which a long gap would dominate; its step up to the
             # window's last sample read (later arrivals would move it with the chunking),
             # the smallest while few are known (holes would make the median)
-            steps.append(buf.usual_step(through_s=t))
+            steps.append(buf.usual_step(through_s=t, prior_s=self._prior_steps.get(name)))
             times.append(ts)
             values.append(vs)
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):

@@ -170,6 +170,11 @@ def test_train_then_predict_on_measured_layout(workdir, capfd):
     # the model names the vehicle of its training runs; a run of another one is said
     from terrain.serving.model import read_model_metadata
     assert read_model_metadata(model_dir)["vehicle"] == "husky"
+    # and its channels' sample steps in the training runs (Vulpi: IMU 50 Hz, wheels 15 Hz),
+    # against which a live stream's first steps are judged
+    steps = read_model_metadata(model_dir)["channel_steps_s"]
+    assert steps["wz"] == pytest.approx(0.02, rel=0.05)
+    assert steps["vel_l"] == pytest.approx(1 / 15, rel=0.05)
     assert "another vehicle" not in capfd.readouterr().out
     (runs_dir / "UNKNOWN_A" / "meta_1.json").write_text('{"vehicle": "agrimaro"}')
     assert main(["predict", "--model", str(model_dir), str(runs_dir), "--out", str(out)]) == 0

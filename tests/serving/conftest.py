@@ -3,6 +3,8 @@ served (session scope)."""
 
 from __future__ import annotations
 
+from types import MappingProxyType
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -12,6 +14,7 @@ from terrain.models.experiment import inference_pipeline
 from terrain.models.svm import SVMConfig
 from terrain.run import WHEEL_CHANNELS
 from terrain.serving import StreamModel
+from terrain.serving.model import training_steps_s
 
 
 def _fit(runs, signals, rate_hz):
@@ -19,7 +22,10 @@ def _fit(runs, signals, rate_hz):
     ws = make_windows(runs, signals, config)
     pipe = inference_pipeline(ws, SVMConfig(probability=True)).fit(ws.X, ws.labels.astype(str))
     classes = tuple(str(c) for c in np.unique(ws.labels.astype(str)))
-    return StreamModel(pipe, ws.channels, config, classes)
+    # as `terrain train` writes it: the training runs' sample step of each channel
+    steps = training_steps_s(runs, ws.channels)
+    return StreamModel(pipe, ws.channels, config, classes,
+                       MappingProxyType({"channel_steps_s": steps}))
 
 
 @pytest.fixture(scope="session")
@@ -67,6 +73,7 @@ def served_all(all_model, tmp_path_factory):
     from terrain.serving.served import save_served_model, served_settings
 
     root, m = tmp_path_factory.mktemp("served_all"), all_model
-    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes, {"dataset": "t"})
+    save_model(root / "train", m.pipeline, m.channels, m.window, m.classes,
+               {"dataset": "t", "channel_steps_s": m.metadata["channel_steps_s"]})
     save_served_model(root / "served", root / "train", served_settings(m))
     return mlflow.pyfunc.load_model(str(root / "served"))
