@@ -267,11 +267,15 @@ class StreamIntake:
             buf = self.buffers[stream]   # (held samples taken meanwhile may restart)
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
+        reached = False   # a sample refused for its values was stamped past the newest
         for rule in self.rules:
             keep, reason = rule(channels, t, v, buf.last_t)
             if not keep.all():
                 bad_t = t[~keep]
                 self.refused[(stream, reason)] += len(bad_t)
+                if reason != TIME_RULE:
+                    reached = reached or bool(((bad_t > buf.last_t)
+                                               & (bad_t <= MAX_PLAUSIBLE_TIME_S)).any())
                 # a sample without a usable stamp is flagged at the stream's newest time
                 # (the service's before the stream's first sample; the first window's
                 # start before any sample at all)
@@ -283,6 +287,10 @@ class StreamIntake:
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
+        if reached and not len(t):
+            # a push refused whole for its values still says the stream went on: its kept
+            # samples have all arrived (as when they came one by one), so it lags no more
+            buf.mark_arrived()
         # a step forward longer than clock_restart_s and stale_s, or a stream's first
         # samples (one comparison on the usual push)
         if hold and len(t) and (clock.ahead is not None or t[-1] - buf.last_t > self._step_s):

@@ -32,7 +32,9 @@ some stream had gone ``stale_s`` past ``t`` when its newest push came while anot
 how old). The samples of a chunk arrive together, so the other streams' samples of its span
 may still be on their way: a stream's staleness is judged from the first sample of its
 newest push, not its last, and a chunk longer than ``stale_s`` makes no decision early
-(one by one, as before; a stream silent for good is judged stale one chunk later).
+(one by one, as before; a stream silent for good is judged stale one chunk later). A later
+push whose samples were all refused for their values still shows the stream went on: its
+kept samples count as arrived one by one.
 
 A sample that arrives after every stream has been silent for long (a paused robot, a
 clock jump) makes every hop of the silent stretch due at once. Decisions due more than

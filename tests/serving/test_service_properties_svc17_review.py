@@ -549,8 +549,6 @@ def test_rules_without_time_increasing_still_keep_the_buffers_in_time_order():
                                    ("wheels", "non_finite"): 1}
 
 
-@pytest.mark.xfail(strict=True, reason="left open (svc17): a lagging stream is judged "
-                   "stale from the first sample of the newest push the rules accepted")
 def test_a_refused_last_sample_pushed_alone_leaves_no_decision_undecided():
     """Found by the chunking property with refused samples: the right stream outlasts the
     left one by 7 s and is pushed as :func:`terrain.serving.replay.interleave` gives it
@@ -558,7 +556,9 @@ def test_a_refused_last_sample_pushed_alone_leaves_no_decision_undecided():
     come); when that last sample is refused (a NaN value), the stream's newest push is
     still the chunk, whose first sample (103.125 s) says how far it had reached: 5
     decisions (to 103.0 s) where the same samples one by one give 16 (to 108.5 s). The
-    served model replays a request in chunks of 32 (``replay_run(max_chunk=32)``)."""
+    served model replays a request in chunks of 32 (``replay_run(max_chunk=32)``). A
+    strict xfail from svc17 to stop 91; a push refused whole for its values now marks the
+    stream's kept samples as arrived (``RingBuffer.mark_arrived``)."""
     t_left, t_right = 100 + np.arange(25) / 8, 100 + np.arange(81) / 8
     v_right = np.zeros(81)
     v_right[-1] = np.nan
@@ -573,3 +573,38 @@ def test_a_refused_last_sample_pushed_alone_leaves_no_decision_undecided():
                         + [("right", list(range(25, 80))), ("right", [80])])
     assert len(a) == 16 and a[-1].t_s == 108.5
     assert _key(b) == _key(a)
+
+
+def test_only_a_push_refused_for_its_values_past_the_newest_sample_marks_arrival():
+    """A chunk then a push refused whole: for a NaN value stamped past the chunk, the
+    buffer's kept samples count as arrived (``batch_first_t`` is its newest sample, as one
+    by one); for a stamp going back (``time_not_increasing``) or a NaN stamp, nothing is
+    said of the stream's progress and the chunk's first sample stays the mark."""
+    t = 100 + np.arange(20) / 8
+    for stamp, value, arrived in [(102.6, math.nan, t[-1]), (101.0, 0.0, t[0]),
+                                  (math.nan, 0.0, t[0]), (101.0, math.nan, t[0])]:
+        svc = _const_service([0.9, 0.05, 0.05])
+        svc.push("wheels", t, np.zeros((20, 2)))
+        assert svc._intake.buffers["wheels"].batch_first_t == t[0]
+        svc.push("wheels", np.array([stamp]), np.full((1, 2), value))
+        buf = svc._intake.buffers["wheels"]
+        assert buf.batch_first_t == arrived, (stamp, value)
+        assert buf.last_t == t[-1] and len(buf) == 20
+    buf.append(np.array([103.0]), np.zeros((1, 2)))     # the next push sets it again
+    assert buf.batch_first_t == 103.0
+
+
+def test_a_stream_refused_whole_after_its_chunk_ends_its_lag_as_one_by_one():
+    """Two streams: the right one's chunk (to 109.875 s) then a NaN sample at 110 s
+    alone. The left stream stopped at 103 s; the decisions then run to 108.5 s, where
+    the right stream's samples pushed one by one (the last one refused) take them."""
+    t_left, t_right = 100 + np.arange(25) / 8, 100 + np.arange(81) / 8
+    pushes = [("left", t_left, np.zeros((25, 1))), ("right", t_right[:80], np.zeros((80, 1))),
+              ("right", t_right[80:], np.full((1, 1), math.nan))]
+    decided = []
+    svc = _const_service([0.9, 0.05, 0.05], streams=TWO)
+    for stream, t, v in pushes:
+        decided += svc.push(stream, t, v)
+    assert decided[-1].t_s == 108.5
+    without = _const_service([0.9, 0.05, 0.05], streams=TWO)
+    assert [d.t_s for d in sum((without.push(*p) for p in pushes[:2]), [])][-1] < 104.0
