@@ -215,7 +215,14 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float, padtype: str =
     ndarray, same shape
         Filtered values (unchanged when the series holds fewer than
         :data:`LOWPASS_MIN_SAMPLES`, too short to filter).
+
+    Raises
+    ------
+    ConfigError
+        ``rate_hz`` or ``cutoff_hz`` not a finite number > 0 (a boolean included; scipy
+        answered "Digital filter critical frequencies must be 0 < Wn < fs/2").
     """
+    config_positive("lowpass", rate_hz=rate_hz, cutoff_hz=cutoff_hz)
     values = np.asarray(values, dtype=float)
     fc = lowpass_cutoff_hz(rate_hz, cutoff_hz)
     sos = signal.butter(LOWPASS_ORDER, fc, fs=float(rate_hz), output="sos")
