@@ -138,7 +138,14 @@ class LagTrack:
         float
             Least-squares slope of lag against time, s per minute (NaN unless at least two
             windows span ``min_span_s``).
+
+        Raises
+        ------
+        ConfigError
+            ``min_span_s`` not a finite number >= 0 (a NaN span failed no comparison and
+            a drift was fitted over any span).
         """
+        config_positive("LagTrack.drift_s_per_min", allow_zero=True, min_span_s=min_span_s)
         if len(self.lags_s) < 2 or np.ptp(self.centres_s) < min_span_s:
             return float("nan")
         return float(np.polyfit(self.centres_s, self.lags_s, 1)[0] * 60.0)
