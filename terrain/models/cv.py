@@ -600,7 +600,16 @@ def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
     -------
     float
         Median wall time per call, ms.
+
+    Raises
+    ------
+    ConfigError
+        ``n_windows`` not an integer >= 1, or ``X`` holds no window (nothing timed: the
+        median of no time was NaN with a NumPy warning).
     """
+    config_integer("inference_ms_per_window n_windows", n_windows, 1)
+    if not len(X):
+        raise ConfigError("inference_ms_per_window: no window to time (X is empty)")
     call = getattr(estimator, "predict_proba", None) or estimator.predict
     try:
         call(X[:1])

@@ -132,6 +132,11 @@ def test_inference_latency_is_in_milliseconds_per_window():
     ms = inference_ms_per_window(model, np.zeros((10, 2)), 4)
     assert 2.5 <= ms < 100.0
     assert model.sizes == [1] * 5                      # warm-up and 4 timed, one window each
+    # nothing to time: refused (the median of no time was NaN with a NumPy warning)
+    from terrain.errors import ConfigError
+    for X, n in ((np.zeros((10, 2)), 0), (np.zeros((0, 2)), 4), (np.zeros((10, 2)), True)):
+        with pytest.raises(ConfigError, match="inference_ms_per_window"):
+            inference_ms_per_window(model, X, n)
 
 
 def test_confusion_figure_normalises_each_true_class_row():
