@@ -30,7 +30,7 @@ import numpy as np
 from terrain.control.desired_slip import build_slip_table
 from terrain.errors import DataFormatError
 from terrain.serving.model import StreamModel, model_vehicle
-from terrain.serving.service import StreamConfig, StreamService
+from terrain.serving.service import UNCLASSIFIED_FLAGS, StreamConfig, StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
 from terrain.sim.closed_loop import Observation
@@ -121,8 +121,13 @@ class LiveClassifier:
                                       obs.currents[:, 1:3]])
             out += self.service.push("wheels", obs.wheels[:, 0], values)
         for d in out:
-            label = None if d.terrain is None else str(d.terrain).upper()
-            self._decisions.append((float(obs.t_s), label, float(d.confidence)))
+            # a window the service did not classify (a gap...) is no decision: without
+            # smoothing the service keeps the last class there with uniform probabilities
+            # (0.5 of two classes, which a table's min_confidence of 0.5 trusts)
+            unclassified = not UNCLASSIFIED_FLAGS.isdisjoint(d.flags.split("|"))
+            label = None if d.terrain is None or unclassified else str(d.terrain).upper()
+            self._decisions.append((float(obs.t_s), label,
+                                    0.0 if label is None else float(d.confidence)))
         self.n_windows += len(out)
 
     def __call__(self, t_s: float) -> tuple:
