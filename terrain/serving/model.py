@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import dataset_vehicle
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
 
@@ -95,6 +95,9 @@ class StreamModel:
         another case, integers for text): every window's probabilities would read 0 for
         every class, and the service decided the first class at confidence 1/K with its
         targets, unflagged. (A class the pipeline lacks, the others present, reads 0.)
+        A class or a channel named more than once (as text: ``1`` and ``"1"`` are one
+        ``proba_1`` column): the service read one class's probability twice (summing past
+        1) and the decisions had two ``proba_<CLASS>`` columns.
     """
 
     pipeline: Any
@@ -105,6 +108,11 @@ class StreamModel:
                                         compare=False, hash=False)
 
     def __post_init__(self) -> None:
+        for what, names in (("classes", self.classes), ("channels", self.channels)):
+            twice = duplicated([str(n) for n in names])
+            if twice:
+                raise ConfigError(f"StreamModel: {what} {twice[:10]!r:.200} named more than "
+                                  f"once in {list(names)[:20]!r:.200}; name each once")
         held = getattr(self.pipeline, "classes_", None)
         # the service's own lookup (StreamService: a class of the model in classes_)
         if held is not None and not any(c in list(held) for c in self.classes):
