@@ -27,6 +27,11 @@ from terrain.errors import (DataFormatError, EncodingError, ImplausibleValueErro
 #: line ends of a CSV body: pandas (MLflow's CSV parser) reads CR LF, LF and a lone CR
 LINE_END = re.compile(rb"\r\n|\r|\n")
 _TEXT_LINE_END = re.compile(r"\r\n|\r|\n")
+#: what pandas skips as a blank line (``skip_blank_lines``): spaces and tabs only; a line of
+#: other white space (a vertical tab, a form feed, a no-break space) is a row of one field
+BLANK = " \t"
+#: the blank lines pandas skips before a CSV body's header line
+_LEADING_BLANK_LINES = re.compile(rb"(?:[ \t]*+(?:\r\n|\r|\n))*+")
 #: largest uncompressed size of a Parquet body, as a multiple of the body-size limit (a
 #: small compressed body can decode to gigabytes)
 PARQUET_EXPANSION = 16
@@ -144,9 +149,18 @@ def _encoding_refusal(body: bytes) -> tuple[int, dict] | None:
     return None
 
 
+def _header_start(body: bytes) -> tuple[int, int]:
+    """(byte offset of the header line, blank lines before it) of a CSV body: pandas skips a
+    UTF-8 byte-order mark and the blank lines (:data:`BLANK` only) before its header."""
+    start = 3 if body.startswith(b"\xef\xbb\xbf") else 0
+    end = _LEADING_BLANK_LINES.match(body, start).end()
+    return end, len(LINE_END.findall(body, start, end))
+
+
 def csv_header(body: bytes) -> list[str]:
     """Column names of a CSV body's header line (ended by CR LF, LF or a lone CR, as pandas
-    reads it; quoted names unquoted, a UTF-8 byte-order mark dropped).
+    reads it; quoted names unquoted, a UTF-8 byte-order mark and blank lines before it
+    dropped, as pandas skips them).
 
     Parameters
     ----------
@@ -163,6 +177,7 @@ def csv_header(body: bytes) -> list[str]:
     csv.Error
         A field beyond the csv module's size limit.
     """
+    body = body[_header_start(body)[0]:]
     head = LINE_END.split(body, 1)[0]
     if b'"' in head:  # a quoted name may hold a line break: the csv module reads it whole
         head = body
@@ -177,17 +192,21 @@ def _ragged_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
     take the first field of rows one field longer than the header as an index, shifting
     every column; blank lines are skipped as pandas skips them. A body with quotes is
     split by :mod:`csv` (a quoted field may hold a comma or a line break), any other by its
-    commas; a body with an unterminated quote is refused before this is asked."""
+    commas; a body with an unterminated quote is refused before this is asked. The blank
+    lines before the header are skipped as pandas skips them (counted in the line)."""
+    start, skipped = _header_start(body)
+    body = body[start:]
     if b'"' in body:  # newline="": the csv module then takes any of the line ends
         reader = csv.reader(io.StringIO(body.decode("utf-8", "replace"), newline=""))
         next(reader, None)  # the header
         for row in reader:
-            blank = len(row) == 1 and not row[0].strip()  # pandas skips a line of spaces
+            # pandas skips a line of spaces and tabs only
+            blank = len(row) == 1 and not row[0].strip(BLANK)
             if row and not blank and len(row) != n_columns:
-                return reader.line_num, len(row)
+                return reader.line_num + skipped, len(row)
         return None
-    for number, line in enumerate(LINE_END.split(body)[1:], start=2):
-        if line.strip() and line.count(b",") + 1 != n_columns:
+    for number, line in enumerate(LINE_END.split(body)[1:], start=2 + skipped):
+        if line.strip(BLANK.encode()) and line.count(b",") + 1 != n_columns:
             return number, line.count(b",") + 1
     return None
 
