@@ -404,7 +404,8 @@ def read_model_metadata(path: str | Path) -> dict:
     ConfigError
         No such directory, missing ``MLmodel`` or pipeline artifact, an ``MLmodel`` that is
         not UTF-8 YAML text, is empty or not a mapping, or whose metadata lacks or mistypes
-        a setting; the message names the file (and the YAML line).
+        a setting or names a class or channel more than once; the message names the file
+        (and the YAML line).
     """
     path = Path(path)
     mlmodel, pipe_file = path / "MLmodel", path / PIPELINE_ARTIFACT
@@ -426,6 +427,10 @@ def read_model_metadata(path: str | Path) -> dict:
                 not all(isinstance(c, (str, int)) and not isinstance(c, bool) for c in names):
             raise ConfigError(f"{mlmodel}: metadata {key} must be a non-empty list of names, "
                               f"got {names!r}"[:300])
+        twice = duplicated([str(c) for c in names])   # 1 and "1": one proba_1 column
+        if twice:
+            raise ConfigError(f"{mlmodel}: metadata {key} names {twice[:10]!r:.200} more than "
+                              "once; name each once")
     for key in ("window_s", "rate_hz", "hop_s", "track_m"):
         value = meta.get(key)
         if key in ("hop_s", "track_m") and value is None:

@@ -45,3 +45,20 @@ def test_a_channel_named_twice_is_refused():
 def test_distinct_names_make_a_model():
     model = StreamModel(_Pipeline(), CHANNELS, WINDOW, ("ICE", "SNOW"))
     assert model.classes == ("ICE", "SNOW")
+
+
+@pytest.mark.parametrize("key, names", [("classes", ["ICE", "SNOW", "ICE"]),
+                                        ("classes", ["ICE", 1, "1"]),
+                                        ("channels", ["acc_x", "vel_l", "acc_x"])])
+def test_a_model_directory_naming_a_class_or_channel_twice_is_refused_naming_the_file(
+        tmp_path, key, names):
+    """``terrain predict`` reads the metadata (:func:`read_model_metadata`) without building
+    a StreamModel: classes [ICE, SNOW, ICE] gave two ``proba_ICE`` columns."""
+    from test_model_metadata_review import META, _model_dir   # same folder
+
+    from terrain.serving.model import read_model_metadata
+
+    path = _model_dir(tmp_path, {**META, key: names})
+    with pytest.raises(ConfigError, match="more than once") as exc:
+        read_model_metadata(path)
+    assert str(path / "MLmodel") in str(exc.value) and key in str(exc.value)
