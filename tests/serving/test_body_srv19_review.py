@@ -90,8 +90,12 @@ def test_a_csv_body_passed_on_is_read_by_pandas_as_checked(pieces):
     if frame.shape[1] < 2 or not len(frame):
         return   # a one-column body is refused by the served model for its columns
     header = csv_header(text.encode())
-    assert [str(c).strip() for c in frame.columns] == [
-        h if h else f"Unnamed: {i}" for i, h in enumerate(header)], text
+    # a name of white space only is '' to csv_header (stripped), kept or "Unnamed: i" by
+    # pandas
+    read = [str(c).strip() for c in frame.columns]
+    assert len(read) == len(header), text
+    assert all(r == h or (not h and r in ("", f"Unnamed: {i}"))
+               for i, (r, h) in enumerate(zip(read, header))), text
     assert isinstance(frame.index, pd.RangeIndex), text
 
 
@@ -108,3 +112,39 @@ def test_blank_lines_before_the_header_change_nothing_but_the_line_numbers(prefi
     if alone is not None:
         assert alone[0] == prefixed[0]
         assert alone[1]["message"].split(":")[0] == prefixed[1]["message"].split(":")[0]
+
+
+_NAMES = st.sampled_from(["t_s", "vel_l", "stream", "", "a b", "1"])
+_VALUES = st.one_of(st.floats(allow_nan=False, allow_infinity=False, width=32),
+                    st.integers(-5, 5), st.sampled_from(["wheels", "", None, True]))
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
+@given(st.lists(_NAMES, max_size=4), st.lists(st.lists(_VALUES, max_size=5), max_size=4),
+       st.booleans(), st.one_of(st.none(), st.lists(st.integers(0, 3), max_size=5)))
+def test_a_json_table_passed_on_is_read_by_mlflow_cell_for_cell(columns, data, records, index):
+    """A ``dataframe_split`` or ``dataframe_records`` body the checks pass is read by
+    MLflow's own JSON reader with every column once and every value given (none filled
+    with NaN, none dropped)."""
+    import json
+
+    from mlflow.utils.proto_json_utils import dataframe_from_parsed_json
+
+    if records:
+        key, doc = "dataframe_records", [dict(zip(columns, row)) for row in data]
+        given_cells = sum(v is not None for row in doc for v in row.values())
+        n_cells = sum(len(row) for row in doc)
+    else:
+        key, doc = "dataframe_split", {"columns": columns, "data": data}
+        if index is not None:
+            doc["index"] = index
+        given_cells = sum(v is not None for row in data for v in row)
+        n_cells = sum(len(row) for row in data)
+    body = json.dumps({key: doc}).encode()
+    if body_refusal("application/json", body, None, LIMIT) is not None:
+        return
+    frame = dataframe_from_parsed_json(json.loads(body)[key],
+                                       "records" if records else "split")
+    assert frame.size == n_cells, body   # no cell added (NaN) for a missing value
+    assert int(frame.notna().sum().sum()) == given_cells, body
+    assert len(set(frame.columns)) == len(frame.columns), body
