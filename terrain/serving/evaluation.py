@@ -821,9 +821,11 @@ def pool_scores(rows: pd.DataFrame) -> dict:
         decisions; rows without any have no weight, and NaN when no row has one),
         ``median_delay_s`` (median of every switching delay, s), ``n_switches``,
         ``recall`` (true class -> share of its decisions naming it) and ``confusion`` (the
-        summed true -> decided counts).
+        summed true -> decided counts). No rows pool to NaN scores, no switch, and empty
+        ``recall`` and ``confusion``.
     """
-    delays = np.concatenate([np.asarray(d, float) for d in rows["delays_s"]])
+    # no rows (a selection that holds none): no switch, as a row without one
+    delays = np.concatenate([np.empty(0)] + [np.asarray(d, float) for d in rows["delays_s"]])
     confusion: dict[str, dict[str, int]] = {}
     for conf in rows["confusion"]:
         for true, row in conf.items():
