@@ -29,7 +29,7 @@ import pandas as pd
 
 from features.windows import WindowConfig, make_windows, runs_track_m
 from terrain.errors import (ConfigError, DataFormatError, config_integer, config_positive,
-                            first_items)
+                            duplicated, first_items)
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -187,8 +187,18 @@ def concatenated_streams(runs: Sequence[Run], streams: Sequence[str], seed: int,
         too short and their lengths. ``min_s`` or ``max_s`` not a finite number > 0,
         ``max_s`` below ``min_s``, or ``gap_s`` not a finite number >= 0 (a negative gap
         would lay each piece over the end of the one before), or ``seed`` not an integer
-        >= 0 (``None`` would string an unseeded stream, another at every call).
+        >= 0 (``None`` would string an unseeded stream, another at every call). ``streams``
+        empty, a bare name (``"wheels"`` would be read as the streams ``w``, ``h``...) or
+        naming a stream twice (each piece would be laid in twice, the clock stepping back).
     """
+    if isinstance(streams, (str, bytes)) or not len(streams):
+        raise ConfigError("concatenated_streams.streams must be a sequence of stream names, "
+                          f"got {'the text ' if isinstance(streams, (str, bytes)) else ''}"
+                          f"{streams!r:.60}" + ("" if len(streams) else " (no stream)"))
+    twice = duplicated(list(streams))
+    if twice:
+        raise ConfigError(f"concatenated_streams.streams names {', '.join(map(repr, twice))} "
+                          "more than once; name each stream once")
     config_integer("concatenated_streams.seed", seed, 0)
     config_positive("concatenated_streams", min_s=min_s, max_s=max_s)
     config_positive("concatenated_streams", allow_zero=True, gap_s=gap_s)
