@@ -181,7 +181,7 @@ def csv_header(body: bytes) -> list[str]:
     head = LINE_END.split(body, 1)[0]
     if b'"' in head:  # a quoted name may hold a line break: the csv module reads it whole
         head = body
-    text = head.decode("utf-8", "replace").lstrip("\ufeff")
+    text = head.decode("utf-8", "replace")   # (one mark at the start: _header_start)
     return [c.strip() for c in next(csv.reader(io.StringIO(text, newline="")), [])]
 
 
