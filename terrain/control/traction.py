@@ -497,7 +497,9 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     ------
     ConfigError
         ``targets`` without the attributes ``traction``, ``braking``, ``steady`` (a plain
-        tuple, None), named.
+        tuple, None), named; a record's target that is not a real number (text, ``None``, a
+        boolean) or finite and outside its range (:func:`check_slip_targets`; a non-finite
+        target gives the safe output).
     ShapeError
         An input array's shape, or a field of ``state``, differs from the state's integral
         ``(n,)`` (named in the message); a state of no drive unit or not one-dimensional.
@@ -539,6 +541,14 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         raise ConfigError(f"traction control step: targets must be a SlipTargets or a "
                           f"desired-slip table row (attributes traction, braking, steady), "
                           f"got {type(targets).__name__} {targets!r:.60}") from None
+    try:   # a SlipTargets or a DesiredSlip was checked when made; any other record was not
+        in_range = (0.0 < t_traction <= 1.0 and -1.0 <= t_braking < 0.0
+                    and 0.0 <= t_steady <= 1.0)
+    except TypeError:   # text, None
+        in_range = False
+    if not in_range or isinstance(t_traction, (bool, np.bool_)) \
+            or isinstance(t_steady, (bool, np.bool_)):   # True passes as a target of 1
+        _check_record_targets(t_traction, t_braking, t_steady)
     radius = cfg.wheel_radius_m
     global_ok = (math.isfinite(chassis_speed_m_s) and math.isfinite(dt_s) and dt_s > 0.0
                  and age_is_fresh(input_age_s, cfg.max_input_age_s)
@@ -652,6 +662,20 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     new_state = TractionState(table[8], table[9], table[10] > 0.5, table[11], table[12],
                               table[13] > 0.5)
     return out, new_state
+
+
+def _check_record_targets(traction, braking, steady) -> None:
+    """Refuse the targets of a record that is not a :class:`SlipTargets` as
+    :func:`check_slip_targets` refuses a :class:`SlipTargets`' (a traction target of the
+    wrong sign made the one-sided limiter slow a wheel that grips, text stopped on a bare
+    TypeError, ``True`` was a target of 1); the slow path, run only once a target is out of
+    its range or a boolean. A non-finite target is not known: the step gives its safe output
+    for it, as before, so only the finite ones are held to their range."""
+    config_numbers("traction control step targets", traction=traction, braking=braking,
+                   steady=steady)
+    known = [(v if math.isfinite(v) else stand_in)   # stand-ins inside each range
+             for v, stand_in in ((traction, 0.5), (braking, -0.5), (steady, 0.5))]
+    check_slip_targets("traction control step targets", *known)
 
 
 def _refuse_booleans(**inputs) -> None:
