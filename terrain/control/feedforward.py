@@ -148,7 +148,8 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         (named, with both shapes; NumPy broadcast a ``(1,)`` reference to every wheel).
     ConfigError
         ``|target_slip|`` not a finite value below 1 (at 1 no ground speed limits the wheel:
-        it was clipped to 0.99 without a word), ``wheel_radius_m`` not > 0, ``dt_s``
+        it was clipped to 0.99 without a word), ``wheel_radius_m`` not finite and > 0
+        (an infinite radius gave a limit of 0: the wheel stopped), ``dt_s``
         negative or not finite, ``accel_limit_m_s2`` not finite (a NaN reference never
         limits), or one of these not a real number (text, ``None``, a boolean; named).
     ImplausibleValueError
@@ -156,7 +157,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         reference would become NaN, its limit never bind again (a non-finite estimate
         counts as 0, as before).
     DataFormatError
-        ``omega_low_level_rad_s``, ``v_est_m_s`` or ``v_ref_m_s`` holding booleans (named).
+        ``omega_low_level_rad_s``, ``v_est_m_s`` or ``v_ref_m_s`` holding booleans or values
+        that are not real numbers (text, a ragged list; named), or ``engaged`` that is not
+        booleans (0.5, ``"no"``: read by truthiness).
     """
     try:
         if any(isinstance(x, (bool, np.bool_))   # float(True) is 1: dt_s=True was a second
@@ -168,9 +171,11 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         config_numbers("feedforward_step", accel_limit_m_s2=accel_limit_m_s2,
                        target_slip=target_slip, wheel_radius_m=wheel_radius_m, dt_s=dt_s)
         raise
-    if not (s_t < 1.0 and radius > 0.0 and 0.0 <= dt_s < math.inf):   # NaN fails each
-        raise ConfigError(f"feedforward_step: need |target_slip| < 1, wheel_radius_m > 0 and "
-                          f"a finite dt_s >= 0, got {target_slip}, {wheel_radius_m}, {dt_s}")
+    # NaN fails each; an infinite radius gave a limit of 0 rad/s: every wheel stopped
+    if not (s_t < 1.0 and 0.0 < radius < math.inf and 0.0 <= dt_s < math.inf):
+        raise ConfigError(f"feedforward_step: need |target_slip| < 1, a finite "
+                          f"wheel_radius_m > 0 and a finite dt_s >= 0, got {target_slip}, "
+                          f"{wheel_radius_m}, {dt_s}")
     if not math.isfinite(a_max):   # a NaN reference never binds, and stays NaN for good
         raise ConfigError(f"feedforward_step: accel_limit_m_s2 must be finite, got "
                           f"{accel_limit_m_s2}")
@@ -179,9 +184,17 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         if holds_booleans(x):   # a boolean command was 1 rad/s
             raise DataFormatError(f"feedforward_step: {name} must hold real numbers, got a "
                                   f"boolean {x!r:.60}", column=name)
-    omega = np.asarray(omega_low_level_rad_s, dtype=float)
-    v_est = np.asarray(v_est_m_s, dtype=float)
-    v_ref = np.asarray(v_ref_m_s, dtype=float)
+    try:
+        omega = np.asarray(omega_low_level_rad_s, dtype=float)
+        v_est = np.asarray(v_est_m_s, dtype=float)
+        v_ref = np.asarray(v_ref_m_s, dtype=float)
+    except (TypeError, ValueError):   # text: numpy's message named no input
+        _name_unreal(omega_low_level_rad_s=omega_low_level_rad_s, v_est_m_s=v_est_m_s,
+                     v_ref_m_s=v_ref_m_s)
+        raise
+    if engaged is not None and np.asarray(engaged).dtype != bool:   # read by truthiness
+        raise DataFormatError(f"feedforward_step: engaged must be the booleans of the "
+                              f"previous step's result, got {engaged!r:.60}", column="engaged")
     n = omega.shape
     if v_ref.shape != n or v_est.shape != n or (
             engaged is not None and np.shape(engaged) != n):
@@ -200,6 +213,18 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
     return FeedForward(corr, v_ref, limit, over)
+
+
+def _name_unreal(**arrays) -> None:
+    """Raise a :class:`~terrain.errors.DataFormatError` naming the first of ``arrays`` that
+    does not convert to real numbers (text, a ragged list); the slow path, run only once a
+    conversion failed."""
+    for name, x in arrays.items():
+        try:
+            np.asarray(x, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DataFormatError(f"feedforward_step: {name} must hold real numbers ({exc})",
+                                  column=name) from None
 
 
 def _refuse_shapes(n: tuple, **arrays) -> None:

@@ -11,9 +11,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
                                       traction_control_step)
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError, ShapeError
 
 FAST = settings(max_examples=60, deadline=None)
 
@@ -66,3 +67,53 @@ def test_a_non_finite_target_of_a_plain_record_still_gives_the_safe_output(bad):
         values = {"traction": 0.1, "braking": -0.15, "steady": 0.0, field: bad}
         out = _step(types.SimpleNamespace(**values))
         assert out.safe.all() and out.correction_rad_s[0] == 0.0
+
+
+# --- the feed-forward limit's inputs ------------------------------------------------------
+
+def _ff(**kw):
+    """One feed-forward step of one wheel commanded at 1 rad/s from rest (r 0.2 m)."""
+    args = dict(v_ref_m_s=np.zeros(1), v_est_m_s=np.zeros(1),
+                omega_low_level_rad_s=np.ones(1), accel_limit_m_s2=1.0, target_slip=0.1,
+                wheel_radius_m=0.2, dt_s=0.02)
+    return feedforward_step(**{**args, **kw})
+
+
+@pytest.mark.parametrize("radius", [np.inf, -np.inf, np.nan, 0.0])
+def test_a_wheel_radius_that_is_not_finite_and_positive_is_refused(radius):
+    """``wheel_radius_m=inf`` passed ``radius > 0``: the limit ``v_ref / (r (1 - s_t))``
+    was 0 and the feed-forward stopped a wheel commanded at 1 rad/s (correction -1)."""
+    with pytest.raises(ConfigError, match="wheel_radius_m"):
+        _ff(wheel_radius_m=radius)
+
+
+@pytest.mark.parametrize("name", ["v_ref_m_s", "v_est_m_s", "omega_low_level_rad_s"])
+@pytest.mark.parametrize("bad", [["a"], ["1,5"], [[1.0, 2.0]]])
+def test_an_input_that_is_not_real_numbers_is_a_data_format_error_naming_it(name, bad):
+    """Text stopped on numpy's bare ValueError ('could not convert string to float'),
+    naming no input; now the project's DataFormatError naming it."""
+    with pytest.raises((DataFormatError, ShapeError), match=name):
+        _ff(**{name: bad})
+
+
+@pytest.mark.parametrize("engaged", [np.array([0.5]), ["no"], np.array([1])])
+def test_engaged_that_is_not_booleans_is_refused(engaged):
+    """``engaged`` is the previous step's boolean result; a float 0.5 or the text 'no' was
+    read by truthiness as an engaged limit (the release then rate-limited)."""
+    with pytest.raises(DataFormatError, match="engaged"):
+        _ff(engaged=engaged)
+
+
+@FAST
+@given(st.floats(0.01, 2.0), st.floats(0.0, 0.9), st.floats(-5.0, 5.0), st.floats(0.0, 3.0),
+       st.floats(0.0, 3.0), st.booleans())
+def test_the_limit_never_raises_the_wheel_speed_nor_reverses_it(radius, slip, omega, v_ref,
+                                                                v_est, engaged):
+    """The correction only lowers ``|omega|`` (never beyond 0) and the reference stays a
+    magnitude; a valid ``engaged`` of the previous step is taken as before."""
+    ff = _ff(wheel_radius_m=radius, target_slip=slip, omega_low_level_rad_s=np.array([omega]),
+             v_ref_m_s=np.array([v_ref]), v_est_m_s=np.array([v_est]),
+             engaged=np.array([engaged]))
+    cmd = omega + ff.correction_rad_s[0]
+    assert abs(cmd) <= abs(omega) + 1e-12 and cmd * omega >= 0.0
+    assert ff.v_ref_m_s[0] >= 0.0 and ff.engaged.dtype == bool
