@@ -96,7 +96,14 @@ def confidence_is_trusted(confidence: float | None, min_confidence: float) -> bo
         False for a confidence below ``min_confidence``, above 1 (a percentage: 45 would
         pass a 0.5 threshold; up to ``CONFIDENCE_ROUNDING`` above 1 is rounding and
         trusted), not finite (NaN, +-inf) or None.
+
+    Raises
+    ------
+    ConfigError
+        ``confidence`` not a real number or None (a boolean: ``True`` passed as a
+        probability of 1; text: Python's bare TypeError).
     """
+    config_numbers("confidence_is_trusted", optional=("confidence",), confidence=confidence)
     return (confidence is not None and math.isfinite(confidence)
             and min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING)
 

@@ -11,10 +11,12 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.control.desired_slip import CONFIDENCE_ROUNDING, confidence_is_trusted
 from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
                                       traction_control_step)
 from terrain.errors import ConfigError, DataFormatError, ShapeError
+from terrain.serving.targets import CataloguePeakTargets
 
 FAST = settings(max_examples=60, deadline=None)
 
@@ -117,3 +119,30 @@ def test_the_limit_never_raises_the_wheel_speed_nor_reverses_it(radius, slip, om
     cmd = omega + ff.correction_rad_s[0]
     assert abs(cmd) <= abs(omega) + 1e-12 and cmd * omega >= 0.0
     assert ff.v_ref_m_s[0] >= 0.0 and ff.engaged.dtype == bool
+
+
+# --- the confidence rule --------------------------------------------------------------------
+
+@pytest.mark.parametrize("confidence", [True, np.True_, "0.9", b"1", [0.9], 0.9 + 0j])
+def test_a_confidence_that_is_not_a_real_number_is_a_config_error(confidence):
+    """The one rule of a decision's confidence read ``True`` as a trusted probability of 1
+    (the live service's catalogue-peak targets then used the class's targets) and stopped
+    on Python's bare TypeError for text; now a ConfigError naming the confidence, in
+    :func:`confidence_is_trusted` and in the provider that calls it."""
+    with pytest.raises(ConfigError, match="confidence must be a real number"):
+        confidence_is_trusted(confidence, 0.5)
+    with pytest.raises(ConfigError, match="confidence must be a real number"):
+        CataloguePeakTargets(["ICE", "TILES"]).target_for("ICE", confidence, False)
+
+
+@FAST
+@given(st.one_of(st.none(), st.floats(allow_nan=True, allow_infinity=True),
+                 st.integers(-3, 3)), st.floats(0.0, 1.0))
+def test_the_confidence_rule_is_a_probability_at_or_above_the_threshold(confidence, threshold):
+    """Real numbers and None are judged as before: trusted iff a finite probability (up to
+    the rounding allowance above 1) at or above the threshold; NumPy scalars as floats."""
+    want = (confidence is not None and np.isfinite(confidence)
+            and threshold <= confidence <= 1.0 + CONFIDENCE_ROUNDING)
+    assert confidence_is_trusted(confidence, threshold) == want
+    if confidence is not None:
+        assert confidence_is_trusted(np.float64(confidence), threshold) == want
