@@ -51,7 +51,7 @@ from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.terramechanics.slip import ground_speed_from_slip
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import HuskyParams, TrackedParams, get_vehicle
 from terrain.vehicles.swerve import wheel_rim_speed
 
 
@@ -356,6 +356,17 @@ class AgriMaRoVisualOdometryEKF:
         self.accel_block_std_m_s2 = np.sqrt(r)
 
 
+def _skid_steer(owner: str, vehicle: str) -> HuskyParams | TrackedParams:
+    """The catalogued skid-steer vehicle ``vehicle``; another one (the AgriMaRo: steered
+    wheels, no track) stopped on a bare AttributeError about ``track_m``."""
+    params = get_vehicle(vehicle)
+    if not isinstance(params, (HuskyParams, TrackedParams)):
+        raise ConfigError(f"{owner}: vehicle {vehicle!r} is not a skid-steer vehicle (husky, "
+                          "tracked), whose two sides it estimates (the AgriMaRo's estimator: "
+                          "AgriMaRoVisualOdometryEKF)")
+    return params
+
+
 class WheelImuObserver:
     """Interim skid-steer estimator: integrated accelerometer pulled to the slower side.
 
@@ -387,7 +398,8 @@ class WheelImuObserver:
     Raises
     ------
     ConfigError
-        ``tau_s`` not a finite number > 0 (inf would never pull to the wheels).
+        ``tau_s`` not a finite number > 0 (inf would never pull to the wheels); an unknown
+        vehicle or one that is not a skid-steer (``agrimaro``: no track).
 
     Notes
     -----
@@ -400,7 +412,7 @@ class WheelImuObserver:
 
     def __init__(self, vehicle: str = "husky", tau_s: float = 2.0) -> None:
         config_positive("WheelImuObserver", tau_s=tau_s)   # inf: never pulled to the wheels
-        self.vehicle = get_vehicle(vehicle)
+        self.vehicle = _skid_steer("WheelImuObserver", vehicle)
         self.tau_s = float(tau_s)
         self.limits = (f"interim until the fused slip estimate: integrated accelerometer "
                        f"pulled to the centre speed the slower side's wheel implies "
@@ -557,7 +569,8 @@ class FusedSlipObserver:
     Raises
     ------
     ConfigError
-        A window or period that is not a finite number > 0; an unknown ``imu`` view.
+        A window or period that is not a finite number > 0; an unknown ``imu`` view; an
+        unknown vehicle or one that is not a skid-steer (``agrimaro``).
     """
 
     def __init__(self, vehicle: str = "husky",
@@ -572,7 +585,7 @@ class FusedSlipObserver:
             raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
         self.imu = imu
         self.name = "husky-fused-slip-ekf" + ("" if imu == "full-gyro" else f"-{imu}-imu")
-        self.vehicle = get_vehicle(vehicle)
+        self.vehicle = _skid_steer("FusedSlipObserver", vehicle)
         self.settings = settings
         self.physics_settings = physics_settings
         self.model = SkidSteerSlipModel(replace(settings.filter, track_m=self.vehicle.track_m))

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.control.desired_slip import CONFIDENCE_ROUNDING, confidence_is_trusted
+from terrain.control.estimators import FusedSlipObserver, WheelImuObserver
 from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
                                       traction_control_step)
@@ -146,3 +147,17 @@ def test_the_confidence_rule_is_a_probability_at_or_above_the_threshold(confiden
     assert confidence_is_trusted(confidence, threshold) == want
     if confidence is not None:
         assert confidence_is_trusted(np.float64(confidence), threshold) == want
+
+
+# --- the skid-steer estimators' vehicle -----------------------------------------------------
+
+@pytest.mark.parametrize("make", [WheelImuObserver, FusedSlipObserver])
+def test_a_skid_steer_estimator_of_a_vehicle_without_a_track_is_a_config_error(make):
+    """The fused observer of the AgriMaRo (three steered wheels, no track) stopped on a bare
+    AttributeError ('AgriMaRoParams' object has no attribute 'track_m'); the wheel + IMU
+    observer was built and failed so at its first wheel sample. Both now refuse it, named;
+    the skid-steer vehicles are built as before."""
+    with pytest.raises(ConfigError, match="agrimaro.*skid-steer"):
+        make("agrimaro")
+    for vehicle in ("husky", "tracked", "HUSKY"):
+        assert make(vehicle).vehicle.track_m > 0
