@@ -37,10 +37,12 @@ Beyond the thesis (their settings in :class:`TractionControlConfig`):
   ``release_tau_s`` instead of jumping to 0, and on enable the integral starts from the held
   correction (with ``ki > 0``), so only the proportional and derivative action on the current
   error is added, never a stale or reset integral;
-* safe output: a non-finite input or an estimate older than ``max_input_age_s`` (or with a
-  negative age: stamped after the step, clocks that disagree; :func:`age_is_fresh`, the rule
-  of the decision age too) gives ``omega_cmd = omega_low_level`` (no correction; clipped to
-  ``+-omega_max`` like every command) at once and resets that wheel's state.
+* safe output: a non-finite input (or a non-finite entry of a unit's memory in the state,
+  one restored from a log or built by hand) or an estimate older than ``max_input_age_s``
+  (or with a negative age: stamped after the step, clocks that disagree;
+  :func:`age_is_fresh`, the rule of the decision age too) gives
+  ``omega_cmd = omega_low_level`` (no correction; clipped to ``+-omega_max`` like every
+  command) at once and resets that wheel's state.
 
 Why not simple-pid (2.0.1) for the building blocks: its windup guard clamps the integral to
 the output limits. That is acceptable for a fixed limit, not here: the room left for the
@@ -436,7 +438,8 @@ class TractionOutput(NamedTuple):
     enabled : ndarray of bool, shape (n,)
         Whether the PID output was applied.
     safe : ndarray of bool, shape (n,)
-        Whether the safe output (no correction) was forced by stale or non-finite input.
+        Whether the safe output (no correction) was forced by stale or non-finite input (or
+        a non-finite entry of that unit's memory in the state).
     """
 
     omega_cmd_rad_s: np.ndarray
@@ -595,7 +598,10 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                 f"wheel-speed command {omega_ll.tolist()}; the controller corrects a "
                 "command, it cannot make one up", column="omega_low_level_rad_s")
         rs = wm * radius
-        ok = global_ok and math.isfinite(ll + rs + vl + al + sl)
+        # a non-finite memory (a state restored from a log, built by hand) is no input either:
+        # a NaN integral or held correction was a NaN command, a NaN derivative stayed for good
+        ok = global_ok and math.isfinite(ll + rs + vl + al + sl + i_prev + d_prev + c_prev
+                                         + (s_prev if s_valid else 0.0))
         if not ok:  # safe output: no correction (only the wheel speed limit), memory dropped
             cmd = min(max(ll, -w_max), w_max)
             rows.append((cmd, cmd - ll, sl, 0.0, 0.0, STEADY, False, True,

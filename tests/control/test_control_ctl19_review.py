@@ -161,3 +161,34 @@ def test_a_skid_steer_estimator_of_a_vehicle_without_a_track_is_a_config_error(m
         make("agrimaro")
     for vehicle in ("husky", "tracked", "HUSKY"):
         assert make(vehicle).vehicle.track_m > 0
+
+
+# --- a state holding a non-finite memory --------------------------------------------------
+
+@FAST
+@given(st.sampled_from(["integral", "slip_prev", "derivative", "correction"]),
+       st.sampled_from([np.nan, np.inf, -np.inf]), st.floats(0.0, 20.0), st.booleans(),
+       st.floats(-1.0, 1.0), st.floats(0.0, 2.0))
+def test_a_non_finite_memory_gives_the_safe_output_of_that_unit_only(field, bad, ki, active,
+                                                                     slip, chassis):
+    """A state restored from a log or built by hand with a NaN in its memory gave a NaN
+    wheel-speed command (integral NaN, or the held correction NaN while the chassis is too
+    slow), and a NaN derivative stayed in the memory for good. Now that unit gets the safe
+    output (no correction, memory cleared), as for a non-finite input; the other unit steps
+    as from the same state without the bad entry."""
+    cfg = TractionControlConfig(ki=ki, kd=0.1)
+    targets = SlipTargets(0.1, -0.15, 0.0)
+    clean = TractionState(np.full(2, 0.3), np.full(2, 0.05), np.ones(2, bool),
+                          np.full(2, 0.2), np.full(2, -0.1), np.full(2, active))
+    values = getattr(clean, field).copy()
+    values[0] = bad
+    state = clean._replace(**{field: values})
+    args = (targets, [1.0, 1.0], [1.0, 1.0], [0.9, 0.9], [0.5, 0.5], chassis, 0.02, 0.0,
+            [slip, slip])
+    out, new = traction_control_step(cfg, state, *args)
+    ref, _ = traction_control_step(cfg, clean, *args)
+    assert np.all(np.isfinite(out.omega_cmd_rad_s))
+    assert all(np.all(np.isfinite(np.asarray(f, dtype=float))) for f in new)
+    if field != "slip_prev" or state.slip_valid[0]:
+        assert out.safe[0] and out.omega_cmd_rad_s[0] == 1.0 and new.integral[0] == 0.0
+    assert not out.safe[1] and out.omega_cmd_rad_s[1] == ref.omega_cmd_rad_s[1]
