@@ -500,9 +500,10 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     ------
     ConfigError
         ``targets`` without the attributes ``traction``, ``braking``, ``steady`` (a plain
-        tuple, None), named; a record's target that is not a real number (text, ``None``, a
-        boolean) or finite and outside its range (:func:`check_slip_targets`; a non-finite
-        target gives the safe output).
+        tuple, None), named; a ``state`` that is not a :class:`TractionState` of NumPy
+        arrays (lists read back from a log, None); a record's target that is not a real
+        number (text, ``None``, a boolean) or finite and outside its range
+        (:func:`check_slip_targets`; a non-finite target gives the safe output).
     ShapeError
         An input array's shape, or a field of ``state``, differs from the state's integral
         ``(n,)`` (named in the message); a state of no drive unit or not one-dimensional.
@@ -557,13 +558,20 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
                  and age_is_fresh(input_age_s, cfg.max_input_age_s)
                  and math.isfinite(t_traction) and math.isfinite(t_braking)
                  and math.isfinite(t_steady))
-    n = state.integral.shape
+    try:   # lists (a state read back from a log) or another record: a bare AttributeError
+        n = state.integral.shape
+        same = (state.slip_prev.shape == n and state.slip_valid.shape == n
+                and state.derivative.shape == n and state.correction.shape == n
+                and state.active.shape == n)
+    except AttributeError:
+        raise ConfigError(f"traction control step: state must be a TractionState of NumPy "
+                          f"arrays (TractionState.zeros(n), or the state a step returned), "
+                          f"got {type(state).__name__} {state!r:.80}") from None
     if len(n) != 1 or n[0] == 0:   # (an IndexError or a TypeError further down)
         raise ShapeError(f"traction control step: the state's integral must hold one entry "
                          f"per drive unit, shape (n,) with n >= 1, got {n}")
     # zip below stops at the shortest array: a state field of another length dropped wheels
-    if (state.slip_prev.shape != n or state.slip_valid.shape != n or state.derivative.shape
-            != n or state.correction.shape != n or state.active.shape != n):
+    if not same:
         bad = [f"{k} {np.shape(a)}" for k, a in zip(state._fields, state) if np.shape(a) != n]
         raise ShapeError(f"traction control step: the state's integral has {n} drive units, "
                          f"its {', '.join(bad)}")

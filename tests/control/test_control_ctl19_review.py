@@ -192,3 +192,14 @@ def test_a_non_finite_memory_gives_the_safe_output_of_that_unit_only(field, bad,
     if field != "slip_prev" or state.slip_valid[0]:
         assert out.safe[0] and out.omega_cmd_rad_s[0] == 1.0 and new.integral[0] == 0.0
     assert not out.safe[1] and out.omega_cmd_rad_s[1] == ref.omega_cmd_rad_s[1]
+
+
+@pytest.mark.parametrize("state", [
+    TractionState(*[a.tolist() for a in TractionState.zeros(2)]),   # read back from JSON
+    None, (np.zeros(2),) * 6, {"integral": np.zeros(2)}])
+def test_a_state_that_is_not_a_traction_state_of_arrays_is_a_config_error(state):
+    """A state of lists (a log read back) or another record stopped on a bare
+    AttributeError ('list' object has no attribute 'shape')."""
+    with pytest.raises(ConfigError, match="state must be a TractionState of NumPy arrays"):
+        traction_control_step(TractionControlConfig(), state, SlipTargets(0.1, -0.15, 0.0),
+                              [1.0, 1.0], [1.0, 1.0], [0.9, 0.9], [0.5, 0.5], 1.0, 0.02)
