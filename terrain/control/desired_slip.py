@@ -220,19 +220,27 @@ def classifier_classes(measured: Sequence[str]) -> tuple[str, ...]:
     Raises
     ------
     ConfigError
-        ``measured`` one class name (text) instead of a sequence of them.
+        ``measured`` one class name (text) instead of a sequence of them, or not a
+        collection (None, a number).
     """
-    _refuse_one_name(measured, "classifier_classes")
+    measured = _class_list(measured, "classifier_classes")
     upper = sorted({str(c).upper() for c in measured})
     return tuple(upper) + tuple(c for c in THESIS_CLASSES if c not in upper)
 
 
-def _refuse_one_name(classes, owner: str) -> None:
-    """A :class:`ConfigError` for one class name (text, bytes) where a sequence is meant:
-    iterated, it would be read as one class per letter."""
+def _class_list(classes, owner: str) -> list:
+    """``classes`` as a list (an iterator is read once: ``build_slip_table`` read a generator
+    twice and found no class the second time); a :class:`ConfigError` for one class name
+    (text, bytes: iterated, it would be read as one class per letter) or for a value that is
+    not a collection (None, a number: Python's bare TypeError)."""
     if isinstance(classes, (str, bytes)):
         raise ConfigError(f"{owner} needs a sequence of class names, got one name "
                           f"{classes!r:.60}")
+    try:
+        return list(classes)
+    except TypeError:
+        raise ConfigError(f"{owner} needs a sequence of class names, got "
+                          f"{type(classes).__name__} {classes!r:.60}") from None
 
 
 def _basis(terrain: TerrainParams) -> str:
@@ -381,10 +389,11 @@ def build_slip_table(classes: Sequence[str],
     ------
     ConfigError
         A class missing from the catalogue (the message lists the valid ones),
-        ``classes`` one class name (text) instead of a sequence of them, or ``config`` not a
+        ``classes`` one class name (text) instead of a sequence of them or not a collection
+        (None, a number), or ``config`` not a
         :class:`DesiredSlipConfig` (:func:`desired_slip`).
     """
-    _refuse_one_name(classes, "build_slip_table")
+    classes = _class_list(classes, "build_slip_table")
     missing = [c for c in classes if str(c).upper() not in TERRAIN_NAMES]
     if missing:
         raise ConfigError(f"no desired slip for class(es) {missing}: a target comes from the "

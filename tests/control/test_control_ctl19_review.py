@@ -11,7 +11,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.control.desired_slip import CONFIDENCE_ROUNDING, confidence_is_trusted
+from terrain.control.desired_slip import (CONFIDENCE_ROUNDING, build_slip_table,
+                                          classifier_classes, confidence_is_trusted)
 from terrain.control.estimators import FusedSlipObserver, WheelImuObserver
 from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
@@ -203,3 +204,23 @@ def test_a_state_that_is_not_a_traction_state_of_arrays_is_a_config_error(state)
     with pytest.raises(ConfigError, match="state must be a TractionState of NumPy arrays"):
         traction_control_step(TractionControlConfig(), state, SlipTargets(0.1, -0.15, 0.0),
                               [1.0, 1.0], [1.0, 1.0], [0.9, 0.9], [0.5, 0.5], 1.0, 0.02)
+
+
+# --- the classes of the desired-slip table ------------------------------------------------
+
+def test_classes_given_as_an_iterator_build_the_same_table():
+    """``build_slip_table`` read its classes twice (once to find the missing ones, once to
+    build the entries): a generator of valid classes was used up by the first pass and the
+    table said 'the desired-slip table has no entries'."""
+    want = build_slip_table(["ICE", "TILES"]).frame()
+    got = build_slip_table(c for c in ["ICE", "TILES"]).frame()
+    assert got.equals(want)
+    assert build_slip_table(iter(["ice"])).frame().equals(build_slip_table(["ICE"]).frame())
+
+
+@pytest.mark.parametrize("make", [build_slip_table, classifier_classes])
+@pytest.mark.parametrize("classes", [None, 5, 2.5])
+def test_classes_that_are_not_a_sequence_are_a_config_error(make, classes):
+    """None or a number stopped on Python's bare TypeError ('... is not iterable')."""
+    with pytest.raises(ConfigError, match="needs a sequence of class names"):
+        make(classes)
