@@ -505,6 +505,36 @@ def default_gains(vehicle: str, estimator: str | None = None) -> tuple[float, fl
     return ESTIMATOR_GAINS.get((vehicle, estimator or ""), DEFAULT_GAINS[vehicle])
 
 
+def check_gains(gains, owner: str) -> tuple:
+    """Refuse gains that are not a pair ``(kp, ki)`` of real numbers.
+
+    Parameters
+    ----------
+    gains : object
+        ``(kp, ki)``: rad/s per unit slip, rad/s per unit slip and second.
+    owner : str
+        Who asks, for the message (``"run_closed_loop gains"``, ``"run_grid gains['husky']"``).
+
+    Returns
+    -------
+    tuple
+        ``(kp, ki)`` as given (their range is
+        :class:`~terrain.control.traction.TractionControlConfig`'s to check).
+
+    Raises
+    ------
+    ConfigError
+        Not a pair (one number, text, a ``(kp, ki, kd)`` triple), or a gain that is not a
+        real number (text, ``None``, a boolean; named ``owner.kp``).
+    """
+    if isinstance(gains, (str, bytes)) or not hasattr(gains, "__len__") or len(gains) != 2:
+        raise ConfigError(f"{owner}: gains must be a pair (kp, ki) of numbers, rad/s per unit "
+                          f"slip and rad/s per unit slip and second, got {gains!r:.60}")
+    kp, ki = gains
+    config_numbers(owner, kp=kp, ki=ki)
+    return kp, ki
+
+
 def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bool, seed: int,
                     duration_s: float = 20.0, gains: tuple[float, float] | None = None,
                     table: SlipTable | None = None,
@@ -574,11 +604,7 @@ def run_closed_loop(vehicle: str, terrain: str, scenario: str, controller_on: bo
         raise ConfigError(f"the traction control loop supports vehicles agrimaro and husky, "
                           f"got {vehicle!r}")
     gains = default_gains(vehicle, estimator) if gains is None else gains
-    if isinstance(gains, (str, bytes)) or not hasattr(gains, "__len__") or len(gains) != 2:
-        raise ConfigError(f"gains must be a pair (kp, ki) of numbers, rad/s per unit slip "
-                          f"and rad/s per unit slip and second, got {gains!r:.60}")
-    kp, ki = gains
-    config_numbers("run_closed_loop gains", kp=kp, ki=ki)
+    kp, ki = check_gains(gains, "run_closed_loop gains")
     cfg, n = config_for_vehicle(vehicle, kp=float(kp), ki=float(ki), **LOOP_SETTINGS[vehicle])
     if live_terrain is not None and terrain_decision is not None:
         raise ConfigError("give terrain_decision or live_terrain, not both")

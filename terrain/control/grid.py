@@ -24,7 +24,7 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.control.closed_loop import run_closed_loop
+from terrain.control.closed_loop import check_gains, run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.errors import (ConfigError, config_positive, config_probability,
@@ -83,13 +83,16 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     ConfigError
         ``terrains``, ``seeds``, ``kp_grid`` or ``ki_grid`` empty or with a value given
         more than once (a repeated seed counts its runs twice), a seed that is not a whole
-        number >= 0 (:func:`~terrain.errors.config_seed`), or a weight that is not a finite
-        real number >= 0 (named), before any run.
+        number >= 0 (:func:`~terrain.errors.config_seed`), or a candidate gain or a weight
+        that is not a finite real number >= 0 (named, ``kp_grid[i]``), before any run.
     """
     config_positive("tune_gains", allow_zero=True, time_weight=time_weight,
                     steady_weight=steady_weight)
     for i, seed in enumerate(seeds):   # (before the runs of the seeds before it)
         config_seed(f"tune_gains seeds[{i}]", seed)
+    for axis, values in (("kp_grid", kp_grid), ("ki_grid", ki_grid)):
+        for i, gain in enumerate(values):   # (the loop refused one when its turn came)
+            config_positive("tune_gains", allow_zero=True, **{f"{axis}[{i}]": gain})
     _check_axes({"terrains": [str(t).upper() for t in terrains], "seeds": list(seeds),
                  "kp_grid": list(kp_grid), "ki_grid": list(ki_grid)}, "tune_gains ",
                 nonempty=True)
@@ -202,7 +205,8 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     ------
     ConfigError
         An evaluation seed is a tuning seed, a value repeated on an axis
-        (:func:`check_grid_axes`), or a vehicle without ``gains`` (named), before any run.
+        (:func:`check_grid_axes`), a vehicle without ``gains`` or whose gains are not a
+        pair of finite real numbers >= 0 (named), before any run.
     """
     from terrain.control.closed_loop import trace_frame
 
@@ -214,6 +218,9 @@ def run_grid(vehicles: Sequence[str], terrains: Sequence[str], scenarios: Sequen
     if missing:   # a KeyError after every run of the vehicles before it
         raise ConfigError(f"run_grid: no gains (kp, ki) for vehicle(s) {missing}; gains has "
                           f"{sorted(gains)}")
+    for veh in vehicles:   # bad gains stopped the grid at the vehicle's first run
+        kp, ki = check_gains(gains[veh], f"run_grid gains[{veh!r}]")
+        config_positive(f"run_grid gains[{veh!r}]", allow_zero=True, kp=kp, ki=ki)
     rows, traces = [], {}
     for veh, ter, sc, seed, on in itertools.product(vehicles, terrains, scenarios, seeds,
                                                     (False, True)):

@@ -11,6 +11,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.control import grid
 from terrain.control.desired_slip import (CONFIDENCE_ROUNDING, build_slip_table,
                                           classifier_classes, confidence_is_trusted)
 from terrain.control.estimators import FusedSlipObserver, WheelImuObserver
@@ -224,3 +225,35 @@ def test_classes_that_are_not_a_sequence_are_a_config_error(make, classes):
     """None or a number stopped on Python's bare TypeError ('... is not iterable')."""
     with pytest.raises(ConfigError, match="needs a sequence of class names"):
         make(classes)
+
+
+# --- the gain grids and the grid's gains, checked before any run ----------------------------
+
+@pytest.mark.parametrize("kp_grid, ki_grid, named", [
+    ([1.0, -1.0], [0.0], r"kp_grid\[1\]"), ([1.0], [0.0, np.nan], r"ki_grid\[1\]"),
+    ([1.0, True], [0.0], r"kp_grid\[1\]"), ([1.0], ["0.5"], r"ki_grid\[0\]"),
+    ([np.inf], [0.0], r"kp_grid\[0\]")])
+def test_tune_gains_checks_its_gain_grids_before_any_run(monkeypatch, kp_grid, ki_grid, named):
+    """A bad candidate gain was refused by the closed loop only when its turn came: after
+    the uncontrolled baseline of every tuning terrain and seed and the controlled runs of
+    the candidates before it (minutes of simulation), and without the grid's name."""
+    runs = []
+    monkeypatch.setattr(grid, "run_closed_loop", lambda *a, **k: runs.append(a))
+    with pytest.raises(ConfigError, match=named):
+        grid.tune_gains("husky", ["ICE"], kp_grid, ki_grid)
+    assert runs == []
+
+
+@pytest.mark.parametrize("gains, named", [
+    ({"husky": (1.0, 0.0), "agrimaro": (-1.0, 0.0)}, "agrimaro"),
+    ({"husky": (1.0, 0.0), "agrimaro": (1.0,)}, "agrimaro"),
+    ({"husky": (1.0, 0.0), "agrimaro": (1.0, "a")}, "agrimaro"),
+    ({"husky": (True, 0.0), "agrimaro": (1.0, 0.0)}, "husky")])
+def test_run_grid_checks_every_vehicles_gains_before_any_run(monkeypatch, gains, named):
+    """Bad gains of the second vehicle were refused only once its first run came, after
+    every run of the first vehicle (hours on the full grid)."""
+    runs = []
+    monkeypatch.setattr(grid, "run_closed_loop", lambda *a, **k: runs.append(a))
+    with pytest.raises(ConfigError, match=named):
+        grid.run_grid(["husky", "agrimaro"], ["ICE"], ["straight_accel"], [0], gains)
+    assert runs == []
