@@ -257,3 +257,32 @@ def test_run_grid_checks_every_vehicles_gains_before_any_run(monkeypatch, gains,
     with pytest.raises(ConfigError, match=named):
         grid.run_grid(["husky", "agrimaro"], ["ICE"], ["straight_accel"], [0], gains)
     assert runs == []
+
+
+# --- driving direction ----------------------------------------------------------------------
+
+_cfgs = st.builds(TractionControlConfig, kp=st.floats(0.0, 5.0), ki=st.floats(0.0, 20.0),
+                  kd=st.floats(0.0, 0.5), omega_max_rad_s=st.floats(1.0, 20.0),
+                  output_fraction=st.floats(0.05, 1.0), one_sided=st.booleans())
+_targets = st.builds(SlipTargets, traction=st.floats(0.01, 1.0), braking=st.floats(-1.0, -0.01),
+                     steady=st.floats(0.0, 1.0))
+#: (omega_low_level, omega_meas, v_long, a_local, chassis speed, dt) of one step
+_steps = st.lists(st.tuples(st.floats(-25.0, 25.0), st.floats(-25.0, 25.0),
+                            st.floats(-3.0, 3.0), st.floats(-3.0, 3.0), st.floats(0.0, 3.0),
+                            st.floats(0.001, 0.1)), min_size=1, max_size=12)
+
+
+@FAST
+@given(_cfgs, _targets, _steps)
+def test_reversing_mirrors_driving_forward(cfg, targets, seq):
+    """Eqs. 8.7-8.9 take the target's sign from sgn(v_long) and the limits hold for either
+    sign of the command: a run with every speed and acceleration negated (the same
+    manoeuvre backwards) gives the negated commands and the same modes, step by step."""
+    fwd = back = TractionState.zeros(1)
+    for ll, w, v, a, chassis, dt in seq:
+        o1, fwd = traction_control_step(cfg, fwd, targets, [ll], [w], [v], [a], chassis, dt)
+        o2, back = traction_control_step(cfg, back, targets, [-ll], [-w], [-v], [-a],
+                                         chassis, dt)
+        np.testing.assert_allclose(o2.omega_cmd_rad_s, -o1.omega_cmd_rad_s, atol=1e-9)
+        np.testing.assert_array_equal(o2.mode, o1.mode)
+        np.testing.assert_array_equal(o2.enabled, o1.enabled)
