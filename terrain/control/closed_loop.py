@@ -26,7 +26,7 @@ from typing import Callable, Mapping, Protocol
 
 import numpy as np
 
-from terrain.control.desired_slip import SlipTable, select_target
+from terrain.control.desired_slip import SlipTable, check_table, select_target
 from terrain.control.estimators import SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
@@ -168,7 +168,9 @@ class TractionLoop:
     ConfigError
         ``accel_tau_s`` not a real number, or not finite and >= 0 (named); ``apply`` or
         ``feed_forward`` not a boolean (``"no"``, 0; named); ``n_units`` not an integer
-        >= 1 (:class:`~terrain.control.traction.TractionController`).
+        >= 1 (:class:`~terrain.control.traction.TractionController`); ``table`` not a
+        :class:`~terrain.control.desired_slip.SlipTable`
+        (:func:`~terrain.control.desired_slip.check_table`).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
@@ -182,6 +184,7 @@ class TractionLoop:
         if not 0.0 <= accel_tau_s < math.inf:   # NaN fails: it turned the filter off, unsaid
             raise ConfigError(f"TractionLoop accel_tau_s must be a finite time constant >= 0 "
                               f"s (0 = no filter), got {accel_tau_s}")
+        check_table(table, "TractionLoop")   # (fallback_basis read table.entries)
         self.controller = TractionController(config, n_units)
         self.observer = observer
         self.feed_forward = bool(feed_forward)

@@ -404,6 +404,28 @@ def build_slip_table(classes: Sequence[str],
     return SlipTable(MappingProxyType(entries), fallback_entry(list(entries.values())), config)
 
 
+def check_table(table, owner: str) -> None:
+    """Refuse a desired-slip table that is not a :class:`SlipTable`.
+
+    Parameters
+    ----------
+    table : object
+        The table given.
+    owner : str
+        Who reads it, for the message (``"select_target"``, ``"TractionLoop"``).
+
+    Raises
+    ------
+    ConfigError
+        ``table`` not a :class:`SlipTable`: its printed frame (:meth:`SlipTable.frame`), its
+        ``entries`` mapping or None stopped on a bare AttributeError.
+    """
+    if not isinstance(table, SlipTable):
+        raise ConfigError(f"{owner} needs the desired-slip table as a SlipTable "
+                          f"(build_slip_table(classes)), got {type(table).__name__} "
+                          f"{table!r:.60}")
+
+
 def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0,
                   decision_age_s: float = 0.0) -> DesiredSlip:
     """Targets for a classifier decision, or the fallback when it cannot be trusted.
@@ -431,8 +453,10 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     Raises
     ------
     ConfigError
-        ``confidence`` or ``decision_age_s`` not a real number or None (text, a bool).
+        ``table`` not a :class:`SlipTable` (:func:`check_table`); ``confidence`` or
+        ``decision_age_s`` not a real number or None (text, a bool).
     """
+    check_table(table, "select_target")
     # True passed as a confidence of 1, text failed inside numpy's isfinite
     config_numbers("select_target", optional=("confidence", "decision_age_s"),
                    confidence=confidence, decision_age_s=decision_age_s)

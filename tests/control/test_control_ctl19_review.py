@@ -12,8 +12,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.control import grid
+from terrain.control.closed_loop import TractionLoop
 from terrain.control.desired_slip import (CONFIDENCE_ROUNDING, build_slip_table,
-                                          classifier_classes, confidence_is_trusted)
+                                          classifier_classes, confidence_is_trusted,
+                                          select_target)
 from terrain.control.estimators import FusedSlipObserver, WheelImuObserver
 from terrain.control.feedforward import feedforward_step
 from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
@@ -286,3 +288,20 @@ def test_reversing_mirrors_driving_forward(cfg, targets, seq):
         np.testing.assert_allclose(o2.omega_cmd_rad_s, -o1.omega_cmd_rad_s, atol=1e-9)
         np.testing.assert_array_equal(o2.mode, o1.mode)
         np.testing.assert_array_equal(o2.enabled, o1.enabled)
+
+
+# --- the table a decision is looked up in -------------------------------------------------
+
+@pytest.mark.parametrize("table", [None, "ICE", "frame", "entries"])
+def test_a_table_that_is_not_a_slip_table_is_a_config_error(table):
+    """``select_target`` and :class:`TractionLoop` read ``table.config`` / ``table.entries``:
+    the table's frame (``SlipTable.frame()``, what a robot engineer prints), its entries
+    mapping or None stopped on a bare AttributeError ('DataFrame' object has no attribute
+    'entries')."""
+    good = build_slip_table(["ICE", "TILES"])
+    table = {"frame": good.frame(), "entries": good.entries}.get(table, table)
+    with pytest.raises(ConfigError, match="SlipTable"):
+        select_target(table, "ICE")
+    with pytest.raises(ConfigError, match="SlipTable"):
+        TractionLoop(TractionControlConfig(), 2, WheelImuObserver(), table,
+                     lambda t: ("ICE", 1.0))
