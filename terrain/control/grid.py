@@ -27,7 +27,7 @@ import pandas as pd
 from terrain.control.closed_loop import check_gains, run_closed_loop
 from terrain.control.feedforward import traction_acceleration_limit
 from terrain.terramechanics.resistance import G_M_S2
-from terrain.errors import (ConfigError, config_positive, config_probability,
+from terrain.errors import (ConfigError, DataFormatError, config_positive, config_probability,
                             config_seed, duplicated)
 from terrain.terramechanics import get_terrain, steady_slip
 
@@ -267,10 +267,26 @@ def compare(results: pd.DataFrame) -> pd.DataFrame:
         any has no share and is left out), ``steady_within_0_02_runs_on`` (how many runs
         that mean is over, of ``runs``), ``terrain_accuracy_on`` (share of control steps
         whose terrain decision is the true terrain, controller on).
+
+    Raises
+    ------
+    DataFormatError
+        ``results`` without one of :func:`run_grid`'s axis, ``controller`` or metric
+        columns, or without any run of the controller ``off`` or ``traction`` (named).
     """
     keys = ["vehicle", "terrain", "scenario"]
     cols = ["peak_slip", "energy_j_per_m", "time_to_speed_s", "slip_rmse",
             "steady_slip_within_0_02", "mean_speed_m_s", "terrain_accuracy"]
+    # (pandas' bare KeyError ('peak_slip', 'traction') for the uncontrolled runs alone)
+    missing = [c for c in keys + ["seed", "controller"] + cols if c not in results.columns]
+    if missing:
+        raise DataFormatError(f"compare needs run_grid's results, which have the column(s) "
+                              f"{', '.join(missing)}", column=missing[0])
+    absent = [c for c in ("off", "traction") if not (results["controller"] == c).any()]
+    if absent:
+        raise DataFormatError(f"compare needs runs with the controller off and on; the results "
+                              f"have none with controller {', '.join(absent)}",
+                              column="controller")
     mean = results.groupby(keys + ["controller"])[cols].mean().unstack("controller")
     out = pd.DataFrame(index=mean.index)
     for c, short in (("peak_slip", "peak_slip"), ("energy_j_per_m", "energy"),

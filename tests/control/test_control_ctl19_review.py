@@ -7,6 +7,7 @@ from __future__ import annotations
 import types
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -305,3 +306,30 @@ def test_a_table_that_is_not_a_slip_table_is_a_config_error(table):
     with pytest.raises(ConfigError, match="SlipTable"):
         TractionLoop(TractionControlConfig(), 2, WheelImuObserver(), table,
                      lambda t: ("ICE", 1.0))
+
+
+# --- the grid's comparison ------------------------------------------------------------------
+
+_RUN = dict(vehicle="husky", terrain="ICE", scenario="straight_accel", seed=3, peak_slip=0.5,
+            energy_j_per_m=10.0, time_to_speed_s=2.0, slip_rmse=0.1,
+            steady_slip_within_0_02=0.5, mean_speed_m_s=1.0, terrain_accuracy=1.0)
+
+
+@pytest.mark.parametrize("rows, named", [
+    ([dict(_RUN, controller="off")], "traction"),          # the uncontrolled runs alone
+    ([dict(_RUN, controller="traction")], "off"),
+    ([], "vehicle"),
+    ([{k: v for k, v in dict(_RUN, controller=c).items() if k != "slip_rmse"}
+      for c in ("off", "traction")], "slip_rmse")])
+def test_compare_refuses_results_without_both_controllers_or_a_column(rows, named):
+    """``compare`` of the uncontrolled runs alone (a filtered results table) stopped on
+    pandas' bare KeyError ('peak_slip', 'traction'), an empty table or one without a metric
+    on KeyError 'vehicle' / 'slip_rmse'; now a DataFormatError naming what is missing."""
+    with pytest.raises(DataFormatError, match=named):
+        grid.compare(pd.DataFrame(rows))
+
+
+def test_compare_of_both_controllers_is_unchanged():
+    table = grid.compare(pd.DataFrame([dict(_RUN, controller="off"),
+                                       dict(_RUN, controller="traction", peak_slip=0.2)]))
+    assert table.loc[0, "peak_slip_cut"] == pytest.approx(0.6) and table.loc[0, "runs"] == 1
