@@ -49,7 +49,7 @@ from terrain.control.closed_loop import LOOP_SETTINGS, default_gains, run_closed
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import TUNING_SEEDS
 from terrain.control.traction import config_for_vehicle
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_seed, duplicated
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.model import load_stream_model
 from terrain.serving.pyfunc import runs_to_model_input, save_model
@@ -177,13 +177,22 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     Raises
     ------
     ConfigError
-        A training seed is an evaluation or tuning seed, no terrain / seed is given, or
-        (``controlled_runs``) the vehicle has no closed loop or the estimator is not one of
-        its own.
+        A training seed is an evaluation or tuning seed or not a whole number >= 0 (named
+        ``seeds[i]``), no terrain / seed is given, a terrain (in any case), seed or scenario
+        is given more than once, or (``controlled_runs``) the vehicle has no closed loop or
+        the estimator is not one of its own; all before any training run.
     """
+    for i, seed in enumerate(seeds):   # (int() trained 2000.5 as seed 2000)
+        config_seed(f"sim_classifier seeds[{i}]", seed)
     check_classifier_seeds(seeds, reserved_seeds)
     if not terrains or not seeds or not scenarios:
         raise ConfigError("the classifier needs at least one terrain, seed and scenario")
+    for axis, values in (("terrains", [str(t).upper() for t in terrains]),
+                         ("seeds", [int(s) for s in seeds]), ("scenarios", list(scenarios))):
+        repeated = duplicated(values)   # the same training runs twice, under one run id
+        if repeated:
+            raise ConfigError(f"sim_classifier {axis}: {repeated} given more than once (each "
+                              "training run once)")
     settings = {"vehicle": vehicle, "terrains": sorted(str(t).upper() for t in terrains),
                 "seeds": sorted(int(s) for s in seeds), "scenarios": list(scenarios),
                 "signals": signals, "duration_s": float(duration_s),
