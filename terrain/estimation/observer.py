@@ -171,7 +171,8 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
         ``use_position=False`` only ``theta`` is read (x, y may be NaN). A sample with a
         non-finite value among those read or among its speeds is missing: no correction (its
         ``error`` is NaN), but the observer predicts over its step with its speeds, or the
-        last finite ones (eq. 8 with ``e = 0``; holding the estimates instead lost the
+        last finite ones (eq. 8 with ``e = 0``; over a time gap in steps of at most the
+        median one, as after a sample it reads; holding the estimates instead lost the
         motion of the step, which the adaptive law made up by raising eta). Before the
         first sample it can read the estimates are held (it starts at that pose).
     v_right_m_s, v_left_m_s : ndarray, shape (N,)
@@ -247,7 +248,11 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
             h = dts[k]
             if started and h > 0.0 and math.isfinite(a_last):
                 v_g, w_g = body_rates(b_last * el, a_last * er, 2.0 * d, 1.0)   # eq. 5
-                xh, yh, th = _dead_reckon(xh, yh, th, v_g, w_g, h, 1, use_pos)
+                # a gap in steps of at most h_nom, as after a sample read (one Euler step
+                # over a 1 s gap in a 0.5 rad/s turn put the pose 0.25 m off the arc)
+                xh, yh, th = _dead_reckon(xh, yh, th, v_g, w_g, h,
+                                          1 if h <= 2.0 * h_nom else math.ceil(h / h_nom),
+                                          use_pos)
             continue
         c, sn = math.cos(theta), math.sin(theta)
         e_th = wrap_angle(theta - th)     # an angle: wrapped to [-pi, pi)
