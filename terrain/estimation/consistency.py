@@ -42,8 +42,9 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     ShapeError
         Shapes that do not match.
     CovarianceError
-        A covariance that is singular (e.g. a state with zero variance); the message names
-        the steps.
+        A covariance that is singular (e.g. a state with zero variance), or one that is not
+        positive definite where it gives a negative NEES (``-np.eye(n)``: NEES ``-|e|^2``,
+        returned before); the message names the steps.
     EstimationError
         Booleans given for the errors or the covariances.
     """
@@ -60,7 +61,13 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
             singular = np.flatnonzero(np.linalg.slogdet(P)[0] == 0)
         raise CovarianceError(f"NEES: the covariance is singular at "
                               f"{first_items(singular.tolist(), word='step')}") from None
-    return np.einsum("ij,ij->i", e, sol)
+    out = np.einsum("ij,ij->i", e, sol)
+    negative = np.flatnonzero(out < 0.0)     # (e^T P^-1 e < 0: P has a negative eigenvalue)
+    if negative.size:
+        raise CovarianceError(f"NEES: the covariance is not positive definite (NEES "
+                              f"{out[negative[0]]:.3g} < 0) at "
+                              f"{first_items(negative.tolist(), word='step')}")
+    return out
 
 
 def state_errors(estimates: np.ndarray, truth: np.ndarray,

@@ -3,8 +3,11 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
+from terrain.errors import CovarianceError
+from terrain.estimation.consistency import nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 
 HALF_TRACK_M = 0.3
@@ -37,3 +40,24 @@ def test_observer_predicts_a_gap_after_a_missing_sample_in_median_steps(v, w, ga
     # step the missing sample lacks), a few mm, not the arc's v w h^2 / 2
     assert np.abs(skipped.error[100, :2]).max() < 0.01
     np.testing.assert_allclose(skipped.error[100, :2], read.error[100, :2], atol=2e-3)
+
+
+def test_nees_refuses_a_covariance_that_makes_it_negative():
+    """NEES is a quadratic form in P^-1: a negative value says P is not a covariance (a sign
+    error in a hand-built P); it was returned as a NEES of -2."""
+    e = np.array([[1.0, 1.0], [0.5, 0.0], [1.0, 0.0]])
+    P = np.stack([np.eye(2), np.eye(2), np.diag([-1.0, 1.0])])
+    with pytest.raises(CovarianceError, match=r"not positive definite .* at step 2$"):
+        nees(e, P)
+    np.testing.assert_allclose(nees(e[:2], P[:2]), [2.0, 0.25])
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(1, 6), st.integers(1, 4), st.integers(0, 2**32 - 1))
+def test_nees_equals_its_definition_for_positive_definite_covariances(N, n, seed):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(N, n, n))
+    P = A @ np.swapaxes(A, 1, 2) + 0.1 * np.eye(n)
+    e = rng.normal(size=(N, n))
+    want = [float(e[k] @ np.linalg.inv(P[k]) @ e[k]) for k in range(N)]
+    np.testing.assert_allclose(nees(e, P), want, rtol=1e-8)
