@@ -338,7 +338,8 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     Parameters
     ----------
     values : ndarray, shape (N,)
-        NEES or NIS values (NaN entries are ignored).
+        NEES or NIS values, >= 0 (NaN entries are ignored; an infinite one, a filter that
+        diverged, is averaged: the mean is then infinite and outside the bounds).
     dof : float or ndarray, shape (N,)
         Degrees of freedom of each value (the number of rows for NIS), >= 0; a value of
         dof 0 (a step without an accepted row) or a NaN value is left out.
@@ -358,7 +359,8 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     ShapeError
         ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
     EstimationError
-        Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1).
+        Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1), or a
+        negative value (a NEES or NIS is a quadratic form: it was averaged in).
     """
     _check_probability(probability)
     refuse_booleans(EstimationError, "chi2_test", values=values, dof=dof)
@@ -372,7 +374,12 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     if bad.size:
         raise ConfigError(f"chi2_test: dof must be >= 0 (0: a step without rows, left out), "
                           f"got {d[bad[0]]!r} at index {int(bad[0])}")
-    ok = np.isfinite(v) & (d > 0)
+    negative = np.flatnonzero(v < 0.0)
+    if negative.size:
+        raise EstimationError(f"chi2_test: NEES / NIS values must be >= 0, got "
+                              f"{float(v[negative[0]])!r} at index {int(negative[0])}")
+    # (an infinite value, a diverged filter, was dropped as NaN is: the rest read consistent)
+    ok = ~np.isnan(v) & (d > 0)
     v, d = v[ok], d[ok]
     if v.size == 0:
         nan = float("nan")

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from terrain.errors import CovarianceError
-from terrain.estimation.consistency import nees
+from terrain.errors import CovarianceError, EstimationError
+from terrain.estimation.consistency import chi2_test, nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 
 HALF_TRACK_M = 0.3
@@ -61,3 +61,17 @@ def test_nees_equals_its_definition_for_positive_definite_covariances(N, n, seed
     e = rng.normal(size=(N, n))
     want = [float(e[k] @ np.linalg.inv(P[k]) @ e[k]) for k in range(N)]
     np.testing.assert_allclose(nees(e, P), want, rtol=1e-8)
+
+
+def test_chi2_test_counts_an_infinite_value_and_refuses_a_negative_one():
+    """An infinite NEES (a filter that diverged) was dropped as NaN is, so the rest of the run
+    read consistent; a negative NIS (not a quadratic form) was averaged in."""
+    good = np.full(50, 2.0)
+    assert chi2_test(good, 2).inside
+    diverged = chi2_test(np.r_[good, np.inf], 2)
+    assert diverged.n_samples == 51 and diverged.mean == np.inf and not diverged.inside
+    assert diverged.fraction_in_pointwise == pytest.approx(50 / 51)
+    # NaN is still no sample
+    assert chi2_test(np.r_[good, np.nan], 2) == chi2_test(good, 2)
+    with pytest.raises(EstimationError, match=r"must be >= 0, got -1\.0 at index 1$"):
+        chi2_test(np.array([1.0, -1.0, 2.0]), 2)
