@@ -28,6 +28,7 @@ from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, proj
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
 from terrain.run import step_index, times_out_of_order
+from terrain.vehicles.common import float_arrays
 
 #: Engines of :func:`run_filter`.
 ENGINES: tuple[str, ...] = ("auto", "numba", "numpy")
@@ -90,14 +91,23 @@ class SensorSamples:
     values : ndarray, shape (k, d)
         Values in the column order of the model's ``sensor_rows[name]`` (SI units); NaN or
         inf entries are skipped and counted.
+
+    Raises
+    ------
+    ShapeError
+        ``t_s`` not ``(k,)`` or ``values`` not ``(k, d)`` (or ``(k,)``, one column).
+    TimeStepError
+        Times not finite and strictly increasing (the first such sample named).
+    EstimationError
+        Booleans given for the times or the values (a mask was filtered as measurements of
+        0 and 1), or entries that are not numbers (text; NumPy's bare ValueError before).
     """
 
     t_s: np.ndarray
     values: np.ndarray
 
     def __post_init__(self) -> None:
-        t = np.asarray(self.t_s, dtype=float)
-        v = np.asarray(self.values, dtype=float)
+        t, v = float_arrays("SensorSamples", t_s=self.t_s, values=self.values)
         if v.ndim == 1:
             v = v[:, None]
         if t.ndim != 1 or v.ndim != 2 or v.shape[0] != t.shape[0]:

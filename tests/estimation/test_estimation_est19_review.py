@@ -9,6 +9,7 @@ from hypothesis import given, settings, strategies as st
 from terrain.errors import CovarianceError, EstimationError
 from terrain.estimation.consistency import chi2_test, nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.estimation.runner import SensorSamples
 
 HALF_TRACK_M = 0.3
 
@@ -75,3 +76,21 @@ def test_chi2_test_counts_an_infinite_value_and_refuses_a_negative_one():
     assert chi2_test(np.r_[good, np.nan], 2) == chi2_test(good, 2)
     with pytest.raises(EstimationError, match=r"must be >= 0, got -1\.0 at index 1$"):
         chi2_test(np.array([1.0, -1.0, 2.0]), 2)
+
+
+@pytest.mark.parametrize("t_s, values, name", [
+    (np.arange(3.0), np.ones((3, 2), dtype=bool), "values"),
+    (np.array([False, True]), np.ones((2, 2)), "t_s"),
+    (np.arange(3.0), np.array(["0.1", "0.2", "fast"]), "values"),
+])
+def test_sensor_samples_refuse_booleans_and_text(t_s, values, name):
+    """A mask given for a sensor's values was filtered as measurements of 0 and 1 (and one
+    for the times as a clock of 0 and 1 s); text was NumPy's bare ValueError."""
+    with pytest.raises(EstimationError, match=f"SensorSamples: {name} must hold numbers"):
+        SensorSamples(t_s, values)
+
+
+def test_sensor_samples_of_numbers_unchanged():
+    s = SensorSamples([0, 1, 2], [0.5, 1, 2])
+    assert s.t_s.dtype == float and s.values.shape == (3, 1)
+    np.testing.assert_array_equal(s.values[:, 0], [0.5, 1.0, 2.0])
