@@ -59,7 +59,7 @@ import numpy as np
 from scipy.integrate import cumulative_trapezoid
 
 from terrain.errors import (ConfigError, DataFormatError, config_numbers, config_positive,
-                            indexed)
+                            duplicated, indexed)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.agrimaro import (AgriMaRoEquationParams, observation_into,
                                                    transition_into)
@@ -134,7 +134,9 @@ class AgriMaRoEKFSettings:
     ConfigError
         Wrong number of values, a value that is not a real number (text, a boolean),
         non-finite or negative variances (``r_diag`` must be > 0), unknown ``q_per`` /
-        ``coriolis``, or an EMA entry with an unknown sensor or an alpha outside [0, 1).
+        ``coriolis``, ``ema_alpha`` not a sequence of ``(sensor, alpha)`` pairs (a dict
+        included) or naming a sensor twice, or an EMA entry with an unknown sensor or an
+        alpha outside [0, 1).
     """
 
     p0_diag: tuple[float, ...] = THESIS_P0
@@ -163,11 +165,22 @@ class AgriMaRoEKFSettings:
         if self.coriolis not in CORIOLIS_CONVENTIONS:
             raise ConfigError(f"unknown coriolis convention {self.coriolis!r}; valid: "
                               f"{', '.join(CORIOLIS_CONVENTIONS)}")
+        # (a dict, one bare pair or a triple was a bare ValueError 'too many values to unpack')
+        pairs = (not isinstance(self.ema_alpha, (str, bytes, Mapping))
+                 and all(isinstance(e, (tuple, list)) and len(e) == 2 for e in self.ema_alpha))
+        if not pairs:
+            raise ConfigError(f"{owner}.ema_alpha must be (sensor, alpha) pairs, e.g. "
+                              f"(('cam', 0.2),), got {self.ema_alpha!r}")
         for sensor, alpha in self.ema_alpha:
             config_numbers(owner, **{f"ema_alpha[{sensor!r}]": alpha})
-            if sensor not in SENSOR_ROWS or not 0.0 <= float(alpha) < 1.0:
+            if not isinstance(sensor, str) or sensor not in SENSOR_ROWS \
+                    or not 0.0 <= float(alpha) < 1.0:
                 raise ConfigError(f"bad EMA entry ({sensor!r}, {alpha}); sensors "
                                   f"{list(SENSOR_ROWS)}, alpha in [0, 1)")
+        repeated = duplicated([sensor for sensor, _ in self.ema_alpha])
+        if repeated:    # (the last alpha of a sensor was used without a word)
+            raise ConfigError(f"{owner}.ema_alpha gives sensor(s) {repeated} more than once "
+                              f"(one alpha per sensor), got {self.ema_alpha!r}")
 
     def alpha(self, sensor: str) -> float:
         """EMA coefficient of one sensor (eq. 6.12).

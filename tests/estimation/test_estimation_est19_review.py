@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from terrain.errors import CovarianceError, EstimationError
+from terrain.errors import ConfigError, CovarianceError, EstimationError
+from terrain.estimation.agrimaro import AgriMaRoEKFSettings
 from terrain.estimation.consistency import chi2_test, nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.runner import SensorSamples
@@ -94,3 +95,25 @@ def test_sensor_samples_of_numbers_unchanged():
     s = SensorSamples([0, 1, 2], [0.5, 1, 2])
     assert s.t_s.dtype == float and s.values.shape == (3, 1)
     np.testing.assert_array_equal(s.values[:, 0], [0.5, 1.0, 2.0])
+
+
+@pytest.mark.parametrize("ema_alpha, match", [
+    ((("cam", 0.2), ("cam", 0.5)), r"gives sensor\(s\) \['cam'\] more than once"),
+    ({"cam": 0.2}, r"ema_alpha must be \(sensor, alpha\) pairs"),
+    (("cam", 0.2), r"ema_alpha must be \(sensor, alpha\) pairs"),
+    ((("cam", 0.2, 1.0),), r"ema_alpha must be \(sensor, alpha\) pairs"),
+    ("cam", r"ema_alpha must be \(sensor, alpha\) pairs"),
+    (((["cam"], 0.2),), r"bad EMA entry"),
+])
+def test_agrimaro_ema_alpha_refuses_repeated_sensors_and_non_pairs(ema_alpha, match):
+    """A sensor given twice had its last alpha used without a word (0.5 for the camera
+    above); a dict, one bare pair or a triple was a bare ValueError 'too many values to
+    unpack'."""
+    with pytest.raises(ConfigError, match=match):
+        AgriMaRoEKFSettings(ema_alpha=ema_alpha)
+
+
+def test_agrimaro_ema_alpha_pairs_unchanged():
+    s = AgriMaRoEKFSettings(ema_alpha=[["cam", 0.2], ("imu", 0.1)])
+    assert (s.alpha("cam"), s.alpha("imu"), s.alpha("omega")) == (0.2, 0.1, 0.0)
+    assert AgriMaRoEKFSettings(ema_alpha=()).alpha("cam") == 0.0
