@@ -67,7 +67,8 @@ from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_proc
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_sensor_names,
-                                       make_grid, run_filter, stream_samples)
+                                       check_time_offsets, make_grid, run_filter,
+                                       stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
@@ -392,13 +393,12 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
         such sample named).
     ConfigError
         A key of ``time_offsets_s`` that is not a sensor of :data:`SENSOR_ROWS`, or a
-        latency that is not a real number (a boolean, None, an array).
+        latency that is not a finite real number (a boolean, None, an array, NaN, inf;
+        :func:`~terrain.estimation.runner.check_time_offsets`).
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
-    offsets = dict(time_offsets_s or {})
-    check_sensor_names("time_offsets_s", offsets, SENSOR_ROWS)
-    config_numbers("time_offsets_s", **offsets)      # (True was a 1 s latency)
+    offsets = check_time_offsets(time_offsets_s, SENSOR_ROWS)
     out: dict[str, SensorSamples] = {}
     for sensor, (stream, cols) in SENSOR_COLUMNS.items():
         frame = run.streams.get(stream)

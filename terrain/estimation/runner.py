@@ -23,7 +23,7 @@ from typing import Any, Iterable, Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import ConfigError, ShapeError, TimeStepError, listed
+from terrain.errors import ConfigError, ShapeError, TimeStepError, config_numbers, listed
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
@@ -146,6 +146,38 @@ def check_sensor_names(argument: str, names: Iterable[str], sensors: Iterable[st
     if unknown:
         raise ConfigError(f"{argument} names {listed(unknown)}, not a sensor of the filter "
                           f"(sensors: {known})")
+
+
+def check_time_offsets(time_offsets_s: Mapping[str, float] | None, sensors: Iterable[str]
+                       ) -> dict[str, float]:
+    """The per-sensor latencies an estimator subtracts from its sensors' timestamps, checked.
+
+    Parameters
+    ----------
+    time_offsets_s : Mapping[str, float] or None
+        Sensor -> latency, s (None: none).
+    sensors : iterable of str
+        The filter's sensors (a model's ``sensor_rows``).
+
+    Returns
+    -------
+    dict
+        Sensor -> latency, s (a copy; empty for None).
+
+    Raises
+    ------
+    ConfigError
+        A key that is not one of ``sensors`` (:func:`check_sensor_names`), a latency that is
+        not a real number (a boolean, text, None, an array) or not finite (NaN or inf made
+        every timestamp of the sensor NaN or inf, refused as the stream's own timestamps).
+    """
+    offsets = dict(time_offsets_s or {})
+    check_sensor_names("time_offsets_s", offsets, sensors)
+    config_numbers("time_offsets_s", **offsets)      # (True was a 1 s latency)
+    bad = {k: v for k, v in offsets.items() if not np.isfinite(v)}
+    if bad:
+        raise ConfigError(f"time_offsets_s must be finite latencies (s), got {bad}")
+    return offsets
 
 
 def stream_samples(run_id: str, stream: str, t_s: np.ndarray, values: np.ndarray

@@ -40,13 +40,14 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, NonNumericError,
-                            ShapeError, config_numbers, config_positive, holds_booleans)
+                            ShapeError, TimeStepError, config_numbers, config_positive,
+                            holds_booleans)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_sensor_names,
+from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_time_offsets,
                                        make_grid, run_filter, sensor_groups, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
@@ -272,17 +273,16 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         named.
     TimeStepError
         A stream's timestamps not finite and strictly increasing (run, stream and the first
-        such sample named).
+        such sample named), or streams that do not overlap in time (run and spans named).
     ConfigError
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`), a key of ``time_offsets_s`` other than ``wheels`` and ``gyro``,
-        or a latency that is not a real number (a boolean, text, None).
+        or a latency that is not a finite real number (a boolean, text, None, NaN, inf;
+        :func:`~terrain.estimation.runner.check_time_offsets`).
     """
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
-    off = dict(time_offsets_s or {})
-    check_sensor_names("time_offsets_s", off, SENSOR_ROWS)
-    config_numbers("time_offsets_s", **off)      # (True was a 1 s latency)
+    off = check_time_offsets(time_offsets_s, SENSOR_ROWS)
     w = run.require_columns("wheels", ("vel_l", "vel_r"))
     samples = {"wheels": stream_samples(run.run_id, "wheels",
                                         w[TIME].to_numpy(float) - off.get("wheels", 0.0),
@@ -304,6 +304,12 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
     t0 = max(s[0] for s in spans)
     t1 = min(s[-1] for s in spans)
+    if not t1 > t0:     # (make_grid's 'empty time span [10.0, 4.99] s' named no run)
+        within = ", ".join(f"{stream!r} {span[0]:.6g}..{span[-1]:.6g} s"
+                           for stream, span in zip(("wheels", "imu"), spans))
+        raise TimeStepError(f"run {run.run_id}: the streams the filter reads do not overlap "
+                            f"in time ({within}, after time_offsets_s {off}); the grid spans "
+                            "their overlap")
     result = run_filter(SkidSteerModel(settings), make_grid(t0, t1, rate), samples, gate=gate,
                         store_covariance=store_covariance)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m,

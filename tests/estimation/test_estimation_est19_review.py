@@ -3,14 +3,17 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings, strategies as st
 
-from terrain.errors import ConfigError, CovarianceError, EstimationError
-from terrain.estimation.agrimaro import AgriMaRoEKFSettings
+from terrain.errors import ConfigError, CovarianceError, EstimationError, TimeStepError
+from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples
 from terrain.estimation.consistency import chi2_test, nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.runner import SensorSamples
+from terrain.estimation.skid_steer import estimate_skid_steer
+from terrain.run import TIME, Run
 
 HALF_TRACK_M = 0.3
 
@@ -117,3 +120,38 @@ def test_agrimaro_ema_alpha_pairs_unchanged():
     s = AgriMaRoEKFSettings(ema_alpha=[["cam", 0.2], ("imu", 0.1)])
     assert (s.alpha("cam"), s.alpha("imu"), s.alpha("omega")) == (0.2, 0.1, 0.0)
     assert AgriMaRoEKFSettings(ema_alpha=()).alpha("cam") == 0.0
+
+
+def _husky_run(imu_shift_s: float = 0.0) -> Run:
+    t = np.arange(0.0, 5.0, 0.01)
+    wheels = pd.DataFrame({TIME: t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t})
+    imu = pd.DataFrame({TIME: t + imu_shift_s, "wz": 0.2 + 0 * t, "ax": 0 * t, "ay": 0 * t,
+                        "az": 9.81 + 0 * t})
+    return Run(run_id="test/ASPHALT/00", dataset="test", terrain="ASPHALT",
+               streams={"wheels": wheels, "imu": imu}, source="in-memory test run")
+
+
+@pytest.mark.parametrize("offsets", [{"wheels": np.nan}, {"gyro": np.inf},
+                                     {"gyro": -np.inf}])
+def test_skid_steer_refuses_a_non_finite_latency_as_the_latency(offsets):
+    """A NaN or infinite latency made every timestamp of its sensor NaN / inf, refused as the
+    stream's own timestamps ('stream 'wheels': sensor timestamps must be finite')."""
+    with pytest.raises(ConfigError, match=r"time_offsets_s must be finite latencies"):
+        estimate_skid_steer(_husky_run(), time_offsets_s=offsets)
+
+
+def test_agrimaro_samples_refuse_a_non_finite_latency():
+    with pytest.raises(ConfigError, match=r"time_offsets_s must be finite latencies"):
+        agrimaro_samples(_husky_run(), time_offsets_s={"imu": np.nan})
+
+
+def test_skid_steer_streams_that_do_not_overlap_name_the_run_and_spans():
+    """The grid spans the streams' overlap: none was make_grid's 'empty time span
+    [10.0, 4.99] s', which named neither the run nor a stream."""
+    with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
+                       r"reads do not overlap in time \('wheels' 0\.\.4\.99 s, 'imu' "
+                       r"10\.\.14\.99 s"):
+        estimate_skid_steer(_husky_run(imu_shift_s=10.0))
+    # a finite latency that still leaves an overlap runs on it
+    res = estimate_skid_steer(_husky_run(), time_offsets_s={"wheels": -3.0})
+    assert res.t_s[0] == pytest.approx(3.0) and res.counts["wheels"]["outside"] == 300
