@@ -213,6 +213,39 @@ def stream_samples(run_id: str, stream: str, t_s: np.ndarray, values: np.ndarray
         raise TimeStepError(f"run {run_id}: stream {stream!r}: {exc}") from None
 
 
+def stream_overlap_s(run_id: str, spans: Mapping[str, np.ndarray], why: str = ""
+                     ) -> tuple[float, float]:
+    """First and last time that every stream a filter reads covers (the span of its grid).
+
+    Parameters
+    ----------
+    run_id : str
+        The run's id, for the message.
+    spans : Mapping[str, ndarray]
+        Stream name -> its sample times, s, increasing (each non-empty).
+    why : str
+        Appended to the message (e.g. the latencies subtracted).
+
+    Returns
+    -------
+    (t_start_s, t_end_s) : tuple of float
+        The overlap, s, ``t_start_s < t_end_s``.
+
+    Raises
+    ------
+    TimeStepError
+        The streams do not overlap (run and each stream's span named; :func:`make_grid`'s
+        'empty time span' named neither).
+    """
+    t0 = max(float(t[0]) for t in spans.values())
+    t1 = min(float(t[-1]) for t in spans.values())
+    if not t1 > t0:
+        within = ", ".join(f"{name!r} {t[0]:.6g}..{t[-1]:.6g} s" for name, t in spans.items())
+        raise TimeStepError(f"run {run_id}: the streams the filter reads do not overlap in "
+                            f"time ({within}{why}); the grid spans their overlap")
+    return t0, t1
+
+
 def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive).
 

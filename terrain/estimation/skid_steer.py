@@ -40,15 +40,15 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, NonNumericError,
-                            ShapeError, TimeStepError, config_numbers, config_positive,
-                            holds_booleans)
+                            ShapeError, config_numbers, config_positive, holds_booleans)
 from terrain.estimation.ekf import Gate
 from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, observation_into,
                                                      transition_into)
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_time_offsets,
-                                       make_grid, run_filter, sensor_groups, stream_samples)
+                                       make_grid, run_filter, sensor_groups, stream_overlap_s,
+                                       stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
 from terrain.vehicles.skid_steer import HUSKY
@@ -302,14 +302,8 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     fast = spans[-1]
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
-    t0 = max(s[0] for s in spans)
-    t1 = min(s[-1] for s in spans)
-    if not t1 > t0:     # (make_grid's 'empty time span [10.0, 4.99] s' named no run)
-        within = ", ".join(f"{stream!r} {span[0]:.6g}..{span[-1]:.6g} s"
-                           for stream, span in zip(("wheels", "imu"), spans))
-        raise TimeStepError(f"run {run.run_id}: the streams the filter reads do not overlap "
-                            f"in time ({within}, after time_offsets_s {off}); the grid spans "
-                            "their overlap")
+    t0, t1 = stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
+                              f", after time_offsets_s {off}")
     result = run_filter(SkidSteerModel(settings), make_grid(t0, t1, rate), samples, gate=gate,
                         store_covariance=store_covariance)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m,

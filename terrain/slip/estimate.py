@@ -900,12 +900,16 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     ------
     EstimationError
         No ``wheels`` stream.
+    TimeStepError
+        A stream's timestamps not finite and strictly increasing (run and stream named), or
+        the wheels and the IMU not overlapping in time (run and spans named).
     ConfigError
         Unknown slip model, lag mode or vehicle; ``outputs`` without ``physics``
         (:func:`pseudo_measurement`); ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]``
         (:func:`~terrain.estimation.runner.check_rate_hz`).
     """
-    from terrain.estimation.runner import SensorSamples, make_grid
+    from terrain.estimation.runner import (SensorSamples, make_grid, stream_overlap_s,
+                                           stream_samples)
     from terrain.estimation.skid_steer_slip import run_with_pseudo_slip
 
     if slip_model not in SLIP_MODELS:
@@ -938,13 +942,13 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     lag_est = skid_steer_encoder_lag(run, fs.track_m) if lag == "xcorr" else None
     applied = lag_est is not None and lag_est.applied
     off = lag_est.lag_s if applied else 0.0
-    samples = {"wheels": SensorSamples(w[TIME].to_numpy(float) - off,
-                                       w[["vel_l", "vel_r"]].to_numpy(float))}
+    samples = {"wheels": stream_samples(run.run_id, "wheels", w[TIME].to_numpy(float) - off,
+                                        w[["vel_l", "vel_r"]].to_numpy(float))}
     spans = [samples["wheels"].t_s]
     imu = run.streams.get("imu")
     if imu is not None:
         t_imu = imu[TIME].to_numpy(float)
-        samples["gyro"] = SensorSamples(t_imu, imu[["wz"]].to_numpy(float))
+        samples["gyro"] = stream_samples(run.run_id, "imu", t_imu, imu[["wz"]].to_numpy(float))
         acc = imu[["ax", "az"]].to_numpy(float)
         samples["accel"] = SensorSamples(t_imu, acc)
         spans.append(t_imu)
@@ -954,7 +958,9 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
                 fs = replace(fs, accel_std_m_s2=float(noise))
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(spans[-1]))) if rate is None else rate
-    grid = make_grid(max(s[0] for s in spans), min(s[-1] for s in spans), rate)
+    grid = make_grid(*stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
+                                       f", after the wheels' lag of {off:.6g} s was subtracted"
+                                       if off else ""), rate)
     notes: list[str] = list(lag_notes(run, lag_est))
     source = slip_model
     if slip_model == "learned" and outputs is not None and "learned" not in outputs:
