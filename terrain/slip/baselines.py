@@ -29,6 +29,7 @@ import numpy as np
 from terrain.errors import DataWarning, ShapeError, config_positive
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.terramechanics.slip import sae_slip
+from terrain.vehicles.common import float_arrays
 from terrain.vehicles.skid_steer import TRACKED, endo_slip_ratio_ratio
 
 
@@ -58,14 +59,16 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     ------
     ShapeError
         Lengths differ.
+    EstimationError
+        Booleans (or values that are not numbers) given for the pitch or the slip (a mask
+        was fitted as pitches or slips of 0 and 1).
 
     Warns
     -----
     DataWarning
         Windows left out for a non-finite pitch or slip (their count).
     """
-    p = np.asarray(pitch_rad, dtype=float)
-    s = np.asarray(slip, dtype=float)
+    p, s = float_arrays("fit_pitch_slip", pitch_rad=pitch_rad, slip=slip)
     lab = np.asarray(terrains, dtype=object)
     if not (p.shape == s.shape == lab.shape):
         raise ShapeError(f"pitch, slip and terrains differ in length: {p.shape}, {s.shape}, "
@@ -110,8 +113,10 @@ def pitch_slip(coefficients: Mapping[str, tuple[float, float]], pitch_rad: np.nd
     ShapeError
         ``terrains`` has another shape than ``pitch_rad`` (one bare string is not a terrain
         for every window).
+    EstimationError
+        Booleans (or values that are not numbers) given for the pitch.
     """
-    p = np.asarray(pitch_rad, dtype=float)
+    p, = float_arrays("pitch_slip", pitch_rad=pitch_rad)
     out = np.full(p.shape, np.nan)
     lab = np.asarray(terrains, dtype=object)
     if lab.shape != p.shape:    # a numpy IndexError, or one string's line on every window

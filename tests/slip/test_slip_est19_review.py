@@ -6,8 +6,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import TimeStepError
+from terrain.errors import EstimationError, TimeStepError
 from terrain.run import TIME, Run
+from terrain.slip.baselines import fit_pitch_slip, pitch_slip
 from terrain.slip.estimate import estimate_skid_steer_slip_run
 
 
@@ -31,3 +32,17 @@ def test_skid_steer_slip_run_names_the_run_for_streams_that_do_not_overlap():
                                      outputs=outputs, lag="none")
     est = estimate_skid_steer_slip_run(_husky_run(), "physics", outputs=outputs, lag="none")
     assert est.ekf.t_s[0] == 0.0 and est.slip.shape == (est.ekf.t_s.size, 2)
+
+
+def test_pitch_slip_model_refuses_booleans():
+    """A mask given for the pitch (or the slip) of seed 003 eq. 22 was fitted as values of 0
+    and 1: fit_pitch_slip([True, False], [0.1, 0.2], ['A', 'A']) gave a slope of -0.1."""
+    with pytest.raises(EstimationError, match="fit_pitch_slip: pitch_rad must hold numbers"):
+        fit_pitch_slip([True, False], [0.1, 0.2], ["A", "A"])
+    with pytest.raises(EstimationError, match="fit_pitch_slip: slip must hold numbers"):
+        fit_pitch_slip([0.0, 0.1], np.array([True, False]), ["A", "A"])
+    with pytest.raises(EstimationError, match="pitch_slip: pitch_rad must hold numbers"):
+        pitch_slip({"A": (0.1, 1.0)}, np.array([True]), ["A"])
+    coef = fit_pitch_slip([0.0, 0.1], [0.1, 0.2], ["A", "A"])
+    assert coef["A"] == pytest.approx((0.1, 1.0))
+    assert pitch_slip(coef, [0.05], ["A"]) == pytest.approx([0.15])
