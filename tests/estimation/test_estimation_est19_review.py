@@ -42,9 +42,10 @@ def test_observer_predicts_a_gap_after_a_missing_sample_in_median_steps(v, w, ga
     skipped = run_adaptive_observer(t, missing, vr, vl, s)
     assert skipped.missing_samples == 1
     # the first sample after the gap sees the same error either way (to the one correction
-    # step the missing sample lacks), a few mm, not the arc's v w h^2 / 2
-    assert np.abs(skipped.error[100, :2]).max() < 0.01
-    np.testing.assert_allclose(skipped.error[100, :2], read.error[100, :2], atol=2e-3)
+    # step the missing sample lacks: < 0.1 mm), about a centimetre at most, not the arc's
+    # v w h^2 / 2 (3 mm to 1.3 m over these speeds and gaps)
+    assert np.abs(skipped.error[100, :2]).max() < 0.02
+    np.testing.assert_allclose(skipped.error[100, :2], read.error[100, :2], atol=5e-4)
 
 
 def test_nees_refuses_a_covariance_that_makes_it_negative():
