@@ -156,3 +156,11 @@ def test_skid_steer_streams_that_do_not_overlap_name_the_run_and_spans():
     # a finite latency that still leaves an overlap runs on it
     res = estimate_skid_steer(_husky_run(), time_offsets_s={"wheels": -3.0})
     assert res.t_s[0] == pytest.approx(3.0) and res.counts["wheels"]["outside"] == 300
+
+
+def test_skid_steer_streams_that_touch_at_one_instant_do_not_overlap():
+    """One common instant is no span to filter over (make_grid needs t_end > t_start)."""
+    last = np.arange(0.0, 5.0, 0.01)[-1]
+    with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
+                       r"reads do not overlap in time"):
+        estimate_skid_steer(_husky_run(imu_shift_s=last))
