@@ -94,7 +94,8 @@ class SlipStateModel(KernelModel):
     ------
     ConfigError
         Unknown ``accel`` or ``q_per``, ``camera`` not a boolean, a variance that is not a
-        real number (text, a boolean), ``r_diag`` of the wrong length or not finite and
+        real number (text, a boolean), ``p0_diag``, ``q_diag`` or a given ``r_diag`` not a
+        sequence (a number, None, text), ``r_diag`` of the wrong length or not finite and
         > 0, ``p0_diag`` / ``q_diag`` without 14 finite values >= 0.
     """
 
@@ -118,8 +119,14 @@ class SlipStateModel(KernelModel):
         config_flags(owner, camera=self.camera)        # ("no" appended the camera rows)
         for label in ("p0_diag", "r_diag", "q_diag"):  # (float() took True and "0.1")
             values = getattr(self, label)
-            if values is not None and np.ndim(values) == 1:
-                config_numbers(owner, **indexed(label, values))
+            if values is None and label == "r_diag":
+                continue
+            if isinstance(values, (str, bytes)) or np.ndim(values) != 1:
+                # (a number or None was a bare TypeError "object of type 'float' has no len()")
+                raise ConfigError(f"{owner}.{label} needs a sequence of variances, one per "
+                                  f"{'state' if label != 'r_diag' else 'measurement row'}, "
+                                  f"got {values!r:.80}")
+            config_numbers(owner, **indexed(label, values))
         names = ["omega_1", "omega_2", "omega_3", "ax", "ay", "wz", "yaw_imu", "delta_1",
                  "delta_2", "delta_3"]
         if self.camera:

@@ -13,6 +13,7 @@ from terrain.estimation.consistency import chi2_test, nees
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.runner import SensorSamples
 from terrain.estimation.skid_steer import estimate_skid_steer
+from terrain.estimation.slip_state import SlipStateModel
 from terrain.run import TIME, Run
 
 HALF_TRACK_M = 0.3
@@ -164,3 +165,19 @@ def test_skid_steer_streams_that_touch_at_one_instant_do_not_overlap():
     with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
                        r"reads do not overlap in time"):
         estimate_skid_steer(_husky_run(imu_shift_s=last))
+
+
+@pytest.mark.parametrize("kwargs", [{"p0_diag": 0.1}, {"q_diag": None}, {"r_diag": 0.1},
+                                    {"q_diag": "0.1"}, {"p0_diag": ((0.1,) * 14,)}])
+def test_slip_state_model_refuses_variances_that_are_not_a_sequence(kwargs):
+    """One number (or None) for a variance vector was a bare TypeError "object of type
+    'float' has no len()"."""
+    (label, _), = kwargs.items()
+    with pytest.raises(ConfigError, match=f"SlipStateModel.{label} needs a sequence of "
+                       "variances"):
+        SlipStateModel(**kwargs)
+
+
+def test_slip_state_model_sequences_unchanged():
+    m = SlipStateModel(p0_diag=np.full(14, 0.1), camera=True)
+    assert m.P0[0, 0] == 0.1 and m.R_diag.size == 14
