@@ -128,7 +128,13 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     -------
     float
         In the unit of ``errors``.
+
+    Raises
+    ------
+    EstimationError
+        Booleans given for the errors (a mask of misses had an RMSE of 1 per miss).
     """
+    refuse_booleans(EstimationError, "rmse", errors=errors)
     sq = np.asarray(errors, dtype=float) ** 2
     return float(np.sqrt(np.nanmean(sq) if ignore_nan else np.mean(sq)))
 

@@ -9,7 +9,7 @@ from hypothesis import given, settings, strategies as st
 
 from terrain.errors import ConfigError, CovarianceError, EstimationError, TimeStepError
 from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples
-from terrain.estimation.consistency import chi2_test, nees
+from terrain.estimation.consistency import chi2_test, nees, rmse
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.runner import SensorSamples
 from terrain.estimation.skid_steer import estimate_skid_steer
@@ -181,3 +181,10 @@ def test_slip_state_model_refuses_variances_that_are_not_a_sequence(kwargs):
 def test_slip_state_model_sequences_unchanged():
     m = SlipStateModel(p0_diag=np.full(14, 0.1), camera=True)
     assert m.P0[0, 0] == 0.1 and m.R_diag.size == 14
+
+
+def test_rmse_refuses_booleans():
+    """rmse(np.ones(3, bool)) was 1.0: a mask read as errors of 1."""
+    with pytest.raises(EstimationError, match="rmse: errors must hold numbers"):
+        rmse(np.ones(3, dtype=bool))
+    assert rmse(np.array([3.0, -4.0])) == pytest.approx(np.sqrt(12.5))
