@@ -267,8 +267,10 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
         ``rate_hz`` not > 0, ``t_end <= t_start``, or fewer than 2 steps.
     ConfigError
         ``rate_hz`` above :data:`MAX_RATE_HZ`, or a grid of more than :data:`MAX_GRID_STEPS`
-        steps (checked before any memory is taken).
+        steps (checked before any memory is taken); an argument that is not a real number
+        (``True`` was a 1 Hz grid, text a bare TypeError).
     """
+    config_numbers("make_grid", t_start_s=t_start_s, t_end_s=t_end_s, rate_hz=rate_hz)
     if not (np.isfinite(rate_hz) and rate_hz > 0):
         raise TimeStepError(f"rate must be > 0 Hz, got {rate_hz}")
     if rate_hz > MAX_RATE_HZ:

@@ -11,7 +11,7 @@ from terrain.errors import ConfigError, CovarianceError, EstimationError, TimeSt
 from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples
 from terrain.estimation.consistency import chi2_test, nees, rmse
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
-from terrain.estimation.runner import SensorSamples
+from terrain.estimation.runner import SensorSamples, make_grid
 from terrain.estimation.skid_steer import estimate_skid_steer
 from terrain.estimation.slip_state import SlipStateModel
 from terrain.run import TIME, Run
@@ -188,3 +188,15 @@ def test_rmse_refuses_booleans():
     with pytest.raises(EstimationError, match="rmse: errors must hold numbers"):
         rmse(np.ones(3, dtype=bool))
     assert rmse(np.array([3.0, -4.0])) == pytest.approx(np.sqrt(12.5))
+
+
+@pytest.mark.parametrize("args, name", [((0.0, 3.0, True), "rate_hz"),
+                                        ((0.0, 3.0, "10"), "rate_hz"),
+                                        ((False, True, 10.0), "t_start_s"),
+                                        ((0.0, None, 10.0), "t_end_s")])
+def test_make_grid_refuses_arguments_that_are_not_numbers(args, name):
+    """make_grid(0, 3, True) was a 1 Hz grid of 4 steps, make_grid(False, True, 10) a grid
+    over [0, 1] s, and a text rate a bare TypeError from np.isfinite."""
+    with pytest.raises(ConfigError, match=f"make_grid.{name} must be a real number"):
+        make_grid(*args)
+    np.testing.assert_allclose(make_grid(0.0, 0.3, 10.0), [0.0, 0.1, 0.2, 0.3])
