@@ -15,7 +15,7 @@ import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import lfilter
 
-from terrain.errors import EstimationError, is_integer
+from terrain.errors import EstimationError, is_integer, refuse_booleans
 
 
 def ema_filter(values: np.ndarray, alpha: float,
@@ -53,8 +53,8 @@ def ema_filter(values: np.ndarray, alpha: float,
     ------
     EstimationError
         ``alpha`` not a number in [0, 1) (a boolean or text included), ``values`` not of
-        shape ``(k,)`` or ``(k, d)``, or an angle column that is not an integer or lies
-        outside the values' columns.
+        shape ``(k,)`` or ``(k, d)`` or holding booleans (a mask was averaged as 0 and 1),
+        or an angle column that is not an integer or lies outside the values' columns.
 
     Examples
     --------
@@ -69,6 +69,7 @@ def ema_filter(values: np.ndarray, alpha: float,
         ok = False
     if not ok:
         raise EstimationError(f"EMA alpha must be a number in [0, 1), got {alpha!r}")
+    refuse_booleans(EstimationError, "ema_filter", values=values)
     v = np.asarray(values, dtype=float)
     if v.ndim not in (1, 2):        # (a scalar was a bare IndexError, (k, d, e) taken as 1 column)
         raise EstimationError(f"EMA values must have shape (k,) or (k, d), got {v.shape}")
@@ -125,7 +126,8 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
     ------
     EstimationError
         ``rate_hz`` or ``window_s`` not a finite number > 0 (a boolean or text included), or
-        ``values`` not of shape ``(k,)`` or ``(k, d)``.
+        ``values`` not of shape ``(k,)`` or ``(k, d)`` or holding booleans (a mask's 0/1
+        steps were measured as noise).
     """
     for name, value in (("rate_hz", rate_hz), ("window_s", window_s)):
         try:     # (float() takes True as 1 and the text "100" as 100: neither is a rate)
@@ -136,6 +138,7 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
         if not ok:
             raise EstimationError(f"robust_noise_std: {name} must be a finite number > 0, "
                                   f"got {value!r}")
+    refuse_booleans(EstimationError, "robust_noise_std", values=values)
     v = np.asarray(values, dtype=float)
     if v.ndim not in (1, 2):
         raise EstimationError(f"robust_noise_std: values must have shape (k,) or (k, d), got "

@@ -11,6 +11,7 @@ from terrain.errors import ConfigError, CovarianceError, EstimationError, TimeSt
 from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples
 from terrain.estimation.consistency import chi2_test, nees, rmse
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+from terrain.estimation.prefilter import ema_filter, robust_noise_std
 from terrain.estimation.runner import SensorSamples, make_grid
 from terrain.estimation.skid_steer import estimate_skid_steer
 from terrain.estimation.slip_state import SlipStateModel
@@ -200,3 +201,14 @@ def test_make_grid_refuses_arguments_that_are_not_numbers(args, name):
     with pytest.raises(ConfigError, match=f"make_grid.{name} must be a real number"):
         make_grid(*args)
     np.testing.assert_allclose(make_grid(0.0, 0.3, 10.0), [0.0, 0.1, 0.2, 0.3])
+
+
+def test_prefilters_refuse_boolean_values():
+    """A mask was averaged as 0 and 1 by the EMA (eq. 6.12) and its steps measured as noise
+    by robust_noise_std (0.76 for an alternating mask at 100 Hz)."""
+    mask = np.arange(200) % 2 == 0
+    with pytest.raises(EstimationError, match="ema_filter: values must hold numbers"):
+        ema_filter(mask, 0.5)
+    with pytest.raises(EstimationError, match="robust_noise_std: values must hold numbers"):
+        robust_noise_std(mask, 100.0)
+    assert ema_filter(np.array([0.0, 10.0]), 0.5).tolist() == [0.0, 5.0]
