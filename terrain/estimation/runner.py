@@ -139,8 +139,13 @@ def check_sensor_names(argument: str, names: Iterable[str], sensors: Iterable[st
     Raises
     ------
     ConfigError
-        A name that is not one of ``sensors`` (the unknown names and the sensors listed).
+        A name that is not one of ``sensors`` (the unknown names and the sensors listed), or
+        ``names`` given as one text (``sensors="imu"`` was read letter by letter, and ``""``
+        as no sensor at all: a filter without measurements).
     """
+    if isinstance(names, (str, bytes)):
+        raise ConfigError(f"{argument} must be a sequence of sensor names, got the text "
+                          f"{names!r} (e.g. ({names!r},))")
     known = list(sensors)
     unknown = [name for name in names if name not in known]
     if unknown:

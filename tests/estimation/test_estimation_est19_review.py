@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from terrain.errors import ConfigError, CovarianceError, EstimationError, TimeStepError
-from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples
+from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples, estimate_agrimaro
 from terrain.estimation.consistency import chi2_test, nees, rmse
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.prefilter import ema_filter, robust_noise_std
@@ -212,3 +212,13 @@ def test_prefilters_refuse_boolean_values():
     with pytest.raises(EstimationError, match="robust_noise_std: values must hold numbers"):
         robust_noise_std(mask, 100.0)
     assert ema_filter(np.array([0.0, 10.0]), 0.5).tolist() == [0.0, 5.0]
+
+
+@pytest.mark.parametrize("sensors", ["imu", ""])
+def test_estimate_agrimaro_refuses_sensors_given_as_one_text(sensors):
+    """sensors='imu' was read letter by letter ("sensors names ['i', 'm', 'u'], not a
+    sensor"), and sensors='' passed the check and dropped every sensor: a filter that only
+    predicted."""
+    with pytest.raises(ConfigError, match="sensors must be a sequence of sensor names, got "
+                       "the text"):
+        estimate_agrimaro(_husky_run(), sensors=sensors)
