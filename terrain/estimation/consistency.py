@@ -268,9 +268,18 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     ------
     ConfigError
         ``max_lag`` not a number >= 1 (:func:`integrated_autocorrelation_time`).
+    ShapeError
+        ``series`` not one-dimensional (rows of several series were joined end to end into
+        one: a (2, 500) array gave 17.9 where its rows give 500 and 4.6).
+    EstimationError
+        Booleans given for the series.
     """
     _check_max_lag("effective_sample_size", max_lag)
+    refuse_booleans(EstimationError, "effective_sample_size", series=series)
     x = np.asarray(series, dtype=float)
+    if x.ndim != 1:
+        raise ShapeError(f"effective_sample_size: series must have shape (N,), got {x.shape} "
+                         "(one series at a time; integrated_autocorrelation_time takes rows)")
     x = x[np.isfinite(x)]
     n = x.size
     if n < 3:
