@@ -224,8 +224,11 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     ConfigError
         ``max_lag`` not a number >= 1 (a negative one summed nearly every lag), or
         ``threshold`` not a finite real number (NaN, a boolean, text).
+    EstimationError
+        Booleans given for the series (a mask's 0/1 steps were read as a correlated signal).
     """
     _check_max_lag("integrated_autocorrelation_time", max_lag)
+    refuse_booleans(EstimationError, "integrated_autocorrelation_time", series=series)
     # (NaN stopped the sum at lag 1 without a word: tau 1, independent samples)
     config_numbers("integrated_autocorrelation_time", threshold=threshold)
     if not np.isfinite(threshold):

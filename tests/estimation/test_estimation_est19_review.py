@@ -10,7 +10,8 @@ from hypothesis import given, settings, strategies as st
 from terrain.errors import (ConfigError, CovarianceError, EstimationError, ShapeError,
                             TimeStepError)
 from terrain.estimation.agrimaro import AgriMaRoEKFSettings, agrimaro_samples, estimate_agrimaro
-from terrain.estimation.consistency import chi2_test, effective_sample_size, nees, rmse
+from terrain.estimation.consistency import (chi2_test, effective_sample_size,
+                                            integrated_autocorrelation_time, nees, rmse)
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.estimation.prefilter import ema_filter, robust_noise_std
 from terrain.estimation.runner import SensorSamples, make_grid
@@ -238,3 +239,11 @@ def test_effective_sample_size_takes_one_series():
         effective_sample_size(np.ones(5, dtype=bool))
     assert effective_sample_size(rows[0]) == 500.0
     assert effective_sample_size(rows[1]) < 10.0
+
+
+def test_integrated_autocorrelation_time_refuses_booleans():
+    """A mask was read as a series of 0 and 1 (tau 1.42 for a random mask of 50)."""
+    with pytest.raises(EstimationError, match="integrated_autocorrelation_time: series must "
+                       "hold numbers"):
+        integrated_autocorrelation_time(np.random.default_rng(1).normal(size=50) > 0)
+    assert integrated_autocorrelation_time(np.ones(10)) == 1.0
