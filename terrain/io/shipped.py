@@ -29,7 +29,7 @@ import pandas as pd
 
 from terrain.errors import (ConfigError, DataFormatError, DataWarning, MissingColumnError,
                             NonFiniteError, NonNumericError, TimestampError)
-from terrain.io.measured import list_run_files, read_run, read_text, text_place
+from terrain.io.measured import folder_text, list_run_files, read_run, read_text, text_place
 from terrain.io.plausibility import check_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 
@@ -114,7 +114,9 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     Returns
     -------
     dict
-        The manifest entry of the dataset (also merged into ``<data_dir>/manifest.json``).
+        The manifest entry of the dataset (also merged into ``<data_dir>/manifest.json``);
+        run ids ``<dataset>/<TERRAIN folder>/<index>``, a folder name that is not UTF-8
+        with its bytes as ``\\xff`` escapes (:func:`terrain.io.measured.folder_text`).
 
     Raises
     ------
@@ -147,6 +149,9 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     runs_info = []
     left_out: dict[str, int] = {}
     for (folder, index), files in sorted(list_run_files(src).items()):
+        # a folder name that is not UTF-8 (its bytes as lone surrogates) as the CSV readers
+        # name it: the Parquet file cannot hold lone surrogates (a bare UnicodeEncodeError)
+        folder = folder_text(folder)
         run_id = f"{dataset}/{folder}/{index}"
         run = read_run(files, run_id, dataset, folder.upper())
         if run.vehicle != DATASET_VEHICLE[dataset]:
