@@ -273,6 +273,25 @@ def _refuse_unreadable_time(run: Run) -> None:
                 f"{file_kind(name)}_XX.csv: sort the stream or drop the repeats")
 
 
+def _refuse_non_finite_values(run: Run) -> None:
+    """ConfigError for a NaN or infinite sample of a numeric channel: the readers give no
+    such value back (an isolated one is interpolated and counted as a repair, one at the
+    file's edge or in a burst makes them refuse the file)."""
+    for name, frame in run.streams.items():
+        for column in frame.columns:
+            if column == TIME or frame[column].dtype.kind not in "iuf":
+                continue
+            bad = np.flatnonzero(~np.isfinite(frame[column].to_numpy(dtype=float)))
+            if bad.size:
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: column {column!r} holds "
+                    f"{bad.size} non-finite value(s), the first "
+                    f"{float(frame[column].iloc[bad[0]])!r} at row {bad[0]}; the readers "
+                    f"never give one back (an isolated one is interpolated, one at the edge "
+                    f"or in a burst makes them refuse {file_kind(name)}_XX.csv): write "
+                    "finite values")
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -321,7 +340,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         text column the readers would refuse or change (a cell with a line break or spaces
         around it, a number, an empty or non-finite cell among text), or timestamps the
         readers refuse (not finite, or not increasing strictly: a duplicated or decreasing
-        one); nothing is written then.
+        one), or a NaN or infinite value of a numeric channel (the readers interpolate an
+        isolated one and refuse one at the file's edge or in a burst); nothing is written
+        then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -352,6 +373,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"rate and would refuse {file_kind(short[0])}_XX.csv; leave the "
                           "stream out")
     _refuse_unreadable_time(run)
+    _refuse_non_finite_values(run)
     _refuse_unreadable_names(run, frames)
     _refuse_unreadable_text(run, frames)
     folder = Path(out_dir) / terrain

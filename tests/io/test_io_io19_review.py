@@ -12,6 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
 from terrain.io.shipped import convert_dataset, read_shipped
 from terrain.io.writer import write_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -47,3 +49,38 @@ def test_convert_takes_a_terrain_folder_whose_name_is_not_utf8(tmp_path):
     assert [r["run_id"] for r in entry["runs"]] == ["borealtc/ic\\xff/00"]
     assert entry["terrains"] == ["IC\\XFF"]
     assert [(r.run_id, r.terrain) for r in runs] == [("borealtc/ic\\xff/00", "IC\\XFF")]
+
+
+@pytest.mark.parametrize("stream, column, rows, value", [
+    ("wheels", "cur_l", [0], np.nan),           # at the edge: the readers refuse the file
+    ("wheels", "vel_r", [5, 6, 7], np.nan),     # a burst: refused too
+    ("imu", "wz", [17], np.inf),                # isolated: read back interpolated, not inf
+    ("imu", "ax", [399], -np.inf),
+])
+def test_a_non_finite_channel_value_is_refused_not_written(tmp_path, stream, column, rows,
+                                                           value):
+    """A NaN or inf sample of a channel was written (an empty cell or ``inf``) without a
+    word: the readers then refused the file (at its edge, or in a burst of more than two)
+    or gave back another value (an isolated one interpolated). ``write_run`` now refuses
+    it as it refuses a non-finite timestamp, naming stream, column and row, and writes
+    nothing."""
+    run = _husky_run()
+    run.streams[stream].loc[rows, column] = value
+    with pytest.raises(ConfigError) as info:
+        write_run(run, tmp_path)
+    text = str(info.value)
+    assert f"stream {stream!r}" in text and f"column {column!r}" in text
+    assert f"row {rows[0]}" in text and f"{len(rows)} non-finite" in text
+    assert not any(tmp_path.iterdir())
+
+
+def test_finite_channels_still_read_back_to_nine_digits(tmp_path):
+    """The refusal leaves finite runs alone: they read back to 9 significant digits."""
+    run = _husky_run()
+    write_run(run, tmp_path)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        (back,) = read_runs_dir(tmp_path)
+    for name, frame in run.streams.items():
+        np.testing.assert_allclose(back.streams[name][frame.columns].to_numpy(),
+                                   frame.to_numpy(), rtol=5e-9, atol=0)
