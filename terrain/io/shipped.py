@@ -60,6 +60,10 @@ DATASET_VEHICLE: Mapping[str, str] = MappingProxyType({"borealtc": "husky", "vul
 STREAM_FILES: Mapping[str, str] = MappingProxyType({"imu": "imu.parquet",
                                                    "wheels": "wheels.parquet"})
 RUN_ID = "run_id"
+#: keys of a run's ``meta_XX.json`` that the shipped format does not need to keep: the
+#: vehicle (checked against :data:`DATASET_VEHICLE`), and the index and file names that
+#: :func:`terrain.io.writer.write_run` records (the run id and the files say them)
+_META_KEPT = frozenset({"vehicle", "index", "files"})
 #: Columns of each shipped stream file besides ``run_id`` (what ``terrain convert`` writes).
 STREAM_COLUMNS: Mapping[str, tuple[str, ...]] = MappingProxyType({
     "imu": (TIME, *IMU_CHANNELS), "wheels": (TIME, *WHEEL_CHANNELS)})
@@ -136,7 +140,8 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         The IMU rate of the converted runs is more than 10 % from the dataset's native rate
         (:data:`DATASET_SPECS`), at which its windows are aligned; stream files other than
         the IMU and wheel ones (``truth``, the AgriMaRo's ``cam``, ``steer``...) that the
-        shipped format leaves out, counted per kind.
+        shipped format leaves out, counted per kind; keys of the runs' ``meta_XX.json``
+        that it leaves out (all but ``vehicle``, ``index`` and ``files``), counted per key.
     """
     if dataset not in DATASET_INFO:
         raise ConfigError(f"unknown dataset {dataset!r}; valid: {list(DATASET_INFO)}")
@@ -148,6 +153,7 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     frames: dict[str, list[pd.DataFrame]] = {s: [] for s in STREAM_FILES}
     runs_info = []
     left_out: dict[str, int] = {}
+    meta_left_out: dict[str, int] = {}
     for (folder, index), files in sorted(list_run_files(src).items()):
         # a folder name that is not UTF-8 (its bytes as lone surrogates) as the CSV readers
         # name it: the Parquet file cannot hold lone surrogates (a bare UnicodeEncodeError)
@@ -162,6 +168,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         for name in run.streams:
             if name not in STREAM_FILES:
                 left_out[name] = left_out.get(name, 0) + 1
+        if "meta" in files:     # (valid: read_run parsed it)
+            for key in json.loads(read_text(files["meta"])):
+                if key not in _META_KEPT:
+                    meta_left_out[key] = meta_left_out.get(key, 0) + 1
         for name in STREAM_FILES:
             if name in run.streams:
                 frames[name].append(run.streams[name].assign(**{RUN_ID: run_id}))
@@ -193,6 +203,11 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         kinds = ", ".join(f"{k} ({n} run(s))" for k, n in sorted(left_out.items()))
         warnings.warn(f"{src}: stream file(s) left out, the shipped format keeps the IMU and "
                       f"wheel streams only: {kinds}", DataWarning, stacklevel=2)
+    if meta_left_out:
+        keys = ", ".join(f"{k} ({n} run(s))" for k, n in sorted(meta_left_out.items()))
+        warnings.warn(f"{src}: run metadata key(s) left out, the shipped format keeps no "
+                      f"meta_XX.json (the vehicle is the dataset's): {keys}", DataWarning,
+                      stacklevel=2)
     native = DATASET_SPECS[dataset].rate_hz
     if "imu" in rates and abs(rates["imu"] / native - 1.0) > 0.1:
         # every window of this dataset is cut on its native clock: a 100 Hz IMU converted

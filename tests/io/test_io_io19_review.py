@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataWarning
 from terrain.io.measured import read_runs_dir
 from terrain.io.shipped import convert_dataset, read_shipped
 from terrain.io.writer import write_run
@@ -84,3 +84,29 @@ def test_finite_channels_still_read_back_to_nine_digits(tmp_path):
     for name, frame in run.streams.items():
         np.testing.assert_allclose(back.streams[name][frame.columns].to_numpy(),
                                    frame.to_numpy(), rtol=5e-9, atol=0)
+
+
+def test_convert_says_which_run_metadata_the_shipped_format_leaves_out(tmp_path):
+    """The keys of a run's ``meta_XX.json`` (an operator, a tyre pressure) were dropped by
+    ``terrain convert`` without a word, while left-out stream files were warned about; they
+    are now warned about too, counted per key. The vehicle (checked against the dataset's)
+    and the index and file names the writer records (the run id and files say them) are
+    not data the shipped copy lacks."""
+    run = _husky_run()
+    run.meta.update(operator="jd", tire_pressure_kpa=180)
+    write_run(run, tmp_path / "src")
+    write_run(_husky_run(), tmp_path / "src")
+    with pytest.warns(DataWarning, match=r"metadata key\(s\) left out.*operator \(1 run"
+                                         r"\(s\)\), tire_pressure_kpa \(1 run\(s\)\)") as info:
+        convert_dataset(tmp_path / "src", "borealtc", tmp_path / "data")
+    (text,) = [str(w.message) for w in info if "metadata" in str(w.message)]
+    assert text.endswith("): operator (1 run(s)), tire_pressure_kpa (1 run(s))")
+
+
+def test_convert_of_runs_without_metadata_keys_warns_none(tmp_path):
+    """Runs whose metadata holds only what the writer records give no such warning."""
+    write_run(_husky_run(), tmp_path / "src")
+    with warnings.catch_warnings(record=True) as found:
+        warnings.simplefilter("always")
+        convert_dataset(tmp_path / "src", "borealtc", tmp_path / "data")
+    assert not [w for w in found if "metadata" in str(w.message)]
