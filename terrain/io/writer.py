@@ -10,7 +10,8 @@ Converting a run's canonical streams back to the file dialect is the inverse of
 ``t_s`` becomes ``time`` in every file, other columns keep their names. Numbers are written with
 ``%.9g`` (9 significant digits: :func:`terrain.io.measured.read_runs_dir` reads back each value
 to within 5e-9 of it, relative), except in a file whose timestamps ``%.9g`` would not keep
-strictly increasing (an epoch clock, ~1.7e9 s, becomes whole seconds): that file is written
+strictly increasing (an epoch clock, ~1.7e9 s, becomes whole seconds) or would move by more
+than a hundredth of its median step (:data:`MAX_CLOCK_SHIFT_STEPS`): that file is written
 with every float in full (Python's shortest exact form), so it reads back exactly.
 """
 
@@ -33,9 +34,18 @@ from terrain.run import TIME, Run
 FLOAT_FORMAT = "%.9g"
 
 
+#: Largest shift of a timestamp by :data:`FLOAT_FORMAT`, in median time steps of its
+#: file, beyond which the file is written in full: a clock 1e6 s from 0 (a robot's seconds
+#: since boot after 12 days) keeps two decimals, and a 15 Hz clock read back up to 7.5 % of
+#: a step off, its steps alternating 0.06 and 0.07 s; a clock from 0 moves by at most 5e-9
+#: of its value (a 100 Hz one by under a hundredth of a step for 5.5 hours at least).
+MAX_CLOCK_SHIFT_STEPS = 0.01
+
+
 def float_format(time_s) -> str | None:
     """The number format of a stream file: :data:`FLOAT_FORMAT`, unless it would not keep
-    the file's timestamps strictly increasing.
+    the file's timestamps strictly increasing, or would move one by more than
+    :data:`MAX_CLOCK_SHIFT_STEPS` median time steps.
 
     Parameters
     ----------
@@ -47,12 +57,21 @@ def float_format(time_s) -> str | None:
     str or None
         :data:`FLOAT_FORMAT`, or None (pandas then writes every float in full, exactly)
         where two timestamps that increase would be written equal or out of order, e.g. an
-        epoch clock at 100 Hz (1700000000.01 s is ``1.7e+09``).
+        epoch clock at 100 Hz (1700000000.01 s is ``1.7e+09``), or where one would be
+        written more than :data:`MAX_CLOCK_SHIFT_STEPS` median steps off (a 15 Hz clock
+        at 1e6 s).
     """
     t = np.asarray(time_s, dtype=float)
     written = np.char.mod(FLOAT_FORMAT, t).astype(float)
     keeps = np.diff(written) > 0
-    return None if (np.diff(t) > 0)[~keeps].any() else FLOAT_FORMAT
+    if (np.diff(t) > 0)[~keeps].any():
+        return None
+    if t.size >= 2:
+        shift = np.abs(written - t)
+        # (NaN timestamps, which the writer refuses, compare False: no shift)
+        if (shift > MAX_CLOCK_SHIFT_STEPS * float(np.median(np.diff(t)))).any():
+            return None
+    return FLOAT_FORMAT
 
 
 def file_kind(stream: str) -> str:

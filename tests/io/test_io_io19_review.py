@@ -6,11 +6,14 @@ Each test names the input that went wrong before its fix (see the commit that ad
 from __future__ import annotations
 
 import os
+import tempfile
 import warnings
 
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataWarning
 from terrain.io.measured import read_runs_dir
@@ -110,3 +113,27 @@ def test_convert_of_runs_without_metadata_keys_warns_none(tmp_path):
         warnings.simplefilter("always")
         convert_dataset(tmp_path / "src", "borealtc", tmp_path / "data")
     assert not [w for w in found if "metadata" in str(w.message)]
+
+
+@settings(max_examples=30, deadline=None, derandomize=True)
+@given(t0=st.sampled_from([0.0, 1234.5, 86400.0 * 4, 1.0e6, 3.3e6, 1.7e9]),
+       wheel_hz=st.sampled_from([6.5, 15.0, 20.0, 66.0]))
+def test_a_written_clock_reads_back_within_a_hundredth_of_its_step(t0, wheel_hz):
+    """A clock far from 0 (a robot's seconds since boot after 12 days, 1e6 s) was written
+    with 9 significant digits whenever they kept it increasing: a 15 Hz wheel clock lost
+    its third decimal and read back up to 0.005 s (7.5 % of a step) off, its steps
+    alternating 0.06 and 0.07 s. A clock that 9 digits move by more than a hundredth of its
+    median step is now written exactly."""
+    run = _husky_run()
+    run.streams["imu"][TIME] += t0
+    wheels = run.streams["wheels"]
+    wheels[TIME] = t0 + np.arange(len(wheels)) / wheel_hz
+    with tempfile.TemporaryDirectory() as tmp:
+        write_run(run, tmp)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            (back,) = read_runs_dir(tmp)
+    for name, frame in run.streams.items():
+        t, t_back = frame[TIME].to_numpy(), back.streams[name][TIME].to_numpy()
+        step = float(np.median(np.diff(t)))
+        assert np.max(np.abs(t_back - t)) <= 0.01 * step, name
