@@ -227,8 +227,13 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             shown = text.iloc[idx[0]]
             shown = shown if len(shown) <= 40 else shown[:37] + "..."
             first = [str(c).strip() for c in rows[int(idx[0])]]
+            # (a log saved with a byte-order mark, joined to another: the mark leads its line)
+            marked = bool(first) and first[0].startswith("\ufeff")
+            if marked:
+                first[0] = first[0].lstrip("\ufeff").strip()
             hint = (f"; line {int(lines[idx[0]])} repeats the header (two logs joined into "
-                    "one file?): cut the file there or delete that line"
+                    "one file?" + (", the second with a byte-order mark" if marked else "")
+                    + "): cut the file there or delete that line"
                     if first == header else
                     "; a decimal comma? numbers take a decimal point (0.25, not 0,25)"
                     if re.fullmatch(r"[-+]?\d*,\d+(?:[eE][-+]?\d+)?", shown) else "")

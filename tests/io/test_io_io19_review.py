@@ -15,8 +15,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import ConfigError, DataWarning
-from terrain.io.measured import read_runs_dir
+from terrain.errors import ConfigError, DataWarning, NonNumericError
+from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.shipped import convert_dataset, read_shipped
 from terrain.io.writer import write_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -137,3 +137,22 @@ def test_a_written_clock_reads_back_within_a_hundredth_of_its_step(t0, wheel_hz)
         t, t_back = frame[TIME].to_numpy(), back.streams[name][TIME].to_numpy()
         step = float(np.median(np.diff(t)))
         assert np.max(np.abs(t_back - t)) <= 0.01 * step, name
+
+
+@pytest.mark.parametrize("kind, log", [
+    ("truth", "time,x\n0,1\n0.01,2\n0.02,3\n"),
+    ("pro", "time,curL,curR,velL,velR\n0,1,1,0.3,0.3\n0.1,1,1,0.3,0.3\n"),
+])
+def test_two_logs_with_a_byte_order_mark_joined_are_named_as_joined(tmp_path, kind, log):
+    """Two logs that each start with a UTF-8 byte-order mark (as Excel and Windows tools
+    save CSV), joined with ``cat``, were refused as holding the non-numeric value
+    ``'\\ufefftime'``: the hint that the line repeats the header (two logs joined) was given
+    only without the mark. It is now given with it too, and says the mark is there."""
+    path = tmp_path / f"{kind}_00.csv"
+    path.write_bytes(("\ufeff" + log + "\ufeff" + log).encode())
+    second = log.count("\n") + 1
+    with pytest.raises(NonNumericError) as info:
+        read_stream_csv(path, kind)
+    assert f"line {second} repeats the header (two logs joined" in str(info.value)
+    assert "byte-order mark" in str(info.value)
+    assert (info.value.line, info.value.column) == (second, "time")
