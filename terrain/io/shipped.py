@@ -132,7 +132,9 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         that does not parse (its line and column named) or is not a JSON object whose
         ``datasets``, if present, is an object. The manifest is checked before anything
         is written, and the Parquet files are written under temporary names and swapped in
-        with the manifest, so a failed conversion leaves ``data_dir`` as it was.
+        with the manifest, so a failed conversion leaves ``data_dir`` as it was; once they
+        are, a stream file of an earlier conversion that this one does not write (no run
+        has that stream now) is removed.
 
     Warns
     -----
@@ -241,6 +243,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
     finally:
         for tmp in pending:               # left only when the conversion failed
             tmp.unlink(missing_ok=True)
+    # a stream file of an earlier conversion that this one does not write (its runs have no
+    # IMU file now): left, unlisted, it made every read of the dataset fail
+    for file_name in set(STREAM_FILES.values()) - set(tables):
+        (out / file_name).unlink(missing_ok=True)
     return entry
 
 

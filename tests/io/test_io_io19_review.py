@@ -156,3 +156,24 @@ def test_two_logs_with_a_byte_order_mark_joined_are_named_as_joined(tmp_path, ki
     assert f"line {second} repeats the header (two logs joined" in str(info.value)
     assert "byte-order mark" in str(info.value)
     assert (info.value.line, info.value.column) == (second, "time")
+
+
+def test_a_new_conversion_without_imu_runs_removes_the_old_imu_file(tmp_path):
+    """Converting a dataset again from runs without an IMU file left the imu.parquet of the
+    earlier conversion in place, unlisted: every read of the dataset then failed ('does not
+    list borealtc/imu.parquet, which exists ... regenerate data/ with terrain convert', the
+    command just run). The stream files the new conversion does not write are removed."""
+    write_run(_husky_run(), tmp_path / "with_imu")
+    wheel_only = _husky_run()
+    wheel_only = Run("mem/01", "mem", "ICE", {"wheels": wheel_only.streams["wheels"]})
+    write_run(wheel_only, tmp_path / "without_imu")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        convert_dataset(tmp_path / "with_imu", "borealtc", tmp_path / "data")
+        entry = convert_dataset(tmp_path / "without_imu", "borealtc", tmp_path / "data")
+        runs = read_shipped("borealtc", tmp_path / "data")
+    assert sorted(p.name for p in (tmp_path / "data" / "borealtc").iterdir()) == [
+        "wheels.parquet"]
+    assert list(entry["files"]) == ["borealtc/wheels.parquet"]
+    assert [sorted(r.streams) for r in runs] == [["wheels"]]
+    assert entry["runs_without_imu"] == ["borealtc/ICE/00"]
