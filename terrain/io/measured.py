@@ -117,6 +117,10 @@ def _header_format_hint(header: list[str]) -> str:
             return f" (the header is separated by {name}; the readers take commas only)"
     if any(len(c) > 1 and c[0] == c[-1] and c[0] in "\"'" for c in header):
         return " (the names are quoted; the readers take them unquoted)"
+    if header and header[0].startswith("\ufeff"):
+        # utf-8-sig drops one at the file's start only: a second one, or one after a line
+        return (" (a byte-order mark leads the header line: the file holds a second one, or "
+                "one after the lines above; save it as UTF-8 with one at most, at its start)")
     return ""
 
 

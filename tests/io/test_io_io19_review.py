@@ -15,7 +15,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import ConfigError, DataWarning, NonNumericError
+from terrain.errors import ConfigError, DataWarning, MissingColumnError, NonNumericError
 from terrain.io.measured import read_runs_dir, read_stream_csv
 from terrain.io.shipped import convert_dataset, read_shipped
 from terrain.io.writer import write_run
@@ -177,3 +177,18 @@ def test_a_new_conversion_without_imu_runs_removes_the_old_imu_file(tmp_path):
     assert list(entry["files"]) == ["borealtc/wheels.parquet"]
     assert [sorted(r.streams) for r in runs] == [["wheels"]]
     assert entry["runs_without_imu"] == ["borealtc/ICE/00"]
+
+
+@pytest.mark.parametrize("before", ["\ufeff\ufeff", "# logged by a tool\n\ufeff"])
+def test_a_byte_order_mark_the_reader_keeps_in_the_header_is_named(tmp_path, before):
+    """A byte-order mark that is not the file's first character (a second one, or one after
+    a comment line) stays in the first header name: the file was refused as missing column
+    'time' beside a found '\\ufefftime', without saying what that is. The message now says a
+    byte-order mark leads the header."""
+    path = tmp_path / "pro_00.csv"
+    path.write_bytes((before + "time,curL,curR,velL,velR\n0,1,1,0.3,0.3\n0.1,1,1,0.3,0.3\n"
+                      ).encode())
+    with pytest.raises(MissingColumnError) as info:
+        read_stream_csv(path, "pro")
+    assert "byte-order mark" in str(info.value)
+    assert (info.value.column, info.value.line) == ("time", before.count("\n") + 1)
