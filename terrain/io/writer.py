@@ -292,6 +292,20 @@ def _refuse_unreadable_time(run: Run) -> None:
                 f"{file_kind(name)}_XX.csv: sort the stream or drop the repeats")
 
 
+def _refuse_missing_columns(run: Run, frames: dict[str, pd.DataFrame]) -> None:
+    """ConfigError for a stream whose file would lack a column the readers require: ``time``
+    (the stream's ``t_s``) in every file, and the canonical columns of ``imu_XX.csv`` and
+    ``pro_XX.csv`` (:data:`terrain.io.measured.COLUMN_MAPS`)."""
+    for (kind, frame), name in zip(frames.items(), run.streams):
+        mapping = COLUMN_MAPS.get(kind, {"time": TIME})
+        missing = [column for column in mapping if column not in frame.columns]
+        if missing:
+            raise ConfigError(
+                f"stream {name!r} of run {run.run_id} lacks the column(s) {missing} of "
+                f"{kind}_XX.csv (channels {[mapping[c] for c in missing]}), which the "
+                "readers require: they would refuse the file")
+
+
 def _refuse_non_finite_values(run: Run) -> None:
     """ConfigError for a NaN or infinite sample of a numeric channel: the readers give no
     such value back (an isolated one is interpolated and counted as a repair, one at the
@@ -349,7 +363,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``index``: the folder holds runs 00-99), a stream name the readers
         would not read back (``meta`` included, and ``pro``: ``pro_XX.csv`` is read back as
         ``wheels``) or two streams that go to one file
-        (:func:`to_file_frames`), a terrain that is not a folder name (``A/B``, ``..``) or
+        (:func:`to_file_frames`), a stream without ``t_s`` or an ``imu`` or ``wheels``
+        stream without one of its canonical channels (a file the readers refuse), a
+        terrain that is not a folder name (``A/B``, ``..``) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
         ``SNOW``), a stream of fewer than :data:`~terrain.io.measured.MIN_DATA_ROWS` (2)
         rows (a file the readers refuse), a column name the readers would not give back
@@ -385,6 +401,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
                           f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
+    _refuse_missing_columns(run, frames)
     short = next(((n, len(f)) for n, f in run.streams.items() if len(f) < MIN_DATA_ROWS), None)
     if short is not None:   # (a header and one row, or none: a file the readers refuse)
         raise ConfigError(f"stream {short[0]!r} of run {run.run_id} has {short[1]} row(s): "

@@ -192,3 +192,27 @@ def test_a_byte_order_mark_the_reader_keeps_in_the_header_is_named(tmp_path, bef
         read_stream_csv(path, "pro")
     assert "byte-order mark" in str(info.value)
     assert (info.value.column, info.value.line) == ("time", before.count("\n") + 1)
+
+
+@pytest.mark.parametrize("stream, drop, missing", [
+    ("truth", TIME, "time"),           # an extra stream without its clock
+    ("imu", TIME, "time"),
+    ("imu", "az", "az"),               # a canonical channel the readers require
+    ("wheels", "cur_r", "curR"),
+])
+def test_a_stream_lacking_a_column_the_readers_require_is_refused_not_written(
+        tmp_path, stream, drop, missing):
+    """A stream without ``t_s`` (or an IMU or wheel stream without one of its canonical
+    channels) was written without a word, and the readers then refused the file (missing
+    column 'time', 'az', 'curR'); ``write_run`` now refuses it naming the stream and the
+    file's column, and writes nothing."""
+    run = _husky_run()
+    streams = dict(run.streams)
+    if stream == "truth":
+        streams["truth"] = pd.DataFrame({TIME: run.streams["wheels"][TIME], "x": 1.0})
+    streams[stream] = streams[stream].drop(columns=[drop])
+    run = Run(run.run_id, run.dataset, run.terrain, streams)
+    with pytest.raises(ConfigError) as info:
+        write_run(run, tmp_path)
+    assert f"stream {stream!r}" in str(info.value) and repr(missing) in str(info.value)
+    assert not any(tmp_path.iterdir())
