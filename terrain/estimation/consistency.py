@@ -121,8 +121,9 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     errors : array_like
         Errors ``estimate - truth`` of any shape, in the unit of the quantity.
     ignore_nan : bool
-        Average over the finite errors only (``numpy.nanmean``; for estimates that are NaN by
-        design, e.g. a slip inside its dead band). False: a NaN error gives NaN.
+        Average over the errors that are not NaN (``numpy.nanmean``; for estimates that are
+        NaN by design, e.g. a slip inside its dead band); an infinite error, a diverged
+        estimate, still gives inf. False: a NaN error gives NaN.
 
     Returns
     -------

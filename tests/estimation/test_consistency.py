@@ -66,6 +66,9 @@ def test_rmse_known_value_and_nan_policy():
     assert rmse(np.array([[1.0, 1.0], [-1.0, 1.0]])) == pytest.approx(1.0)
     assert np.isnan(rmse(np.array([1.0, np.nan])))              # NaN not dropped silently
     assert rmse(np.array([2.0, np.nan]), ignore_nan=True) == pytest.approx(2.0)
+    # a diverged estimate is not a missing one: inf stays inf (est19: the docstring said
+    # "finite errors only")
+    assert rmse(np.array([2.0, np.nan, -np.inf]), ignore_nan=True) == np.inf
 
 
 def test_nees_of_a_singular_covariance_names_the_step():
