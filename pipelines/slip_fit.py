@@ -19,7 +19,8 @@ import pandas as pd
 
 from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_features,
                                     slip_table, slip_windows, terrain_columns)
-from pipelines.arguments import DistinctSeeds, option_params, output_dir, seed_value
+from pipelines.arguments import (DistinctSeeds, DistinctValues, option_params, output_dir,
+                                 seed_value, terrain_name)
 from terrain.errors import ConfigError
 from terrain.io.jsonfile import strict_json
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -52,7 +53,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("--terrains", nargs="+", default=list(TERRAIN_NAMES))
+    parser.add_argument("--terrains", nargs="+", type=terrain_name, action=DistinctValues,
+                        default=list(TERRAIN_NAMES))
     parser.add_argument("--scenarios", nargs="+",
                         default=["straight_accel", "orchard", "slope_turn", "random"])
     parser.add_argument("--train-seeds", nargs="+", type=seed_value, action=DistinctSeeds,
@@ -101,11 +103,11 @@ def main(args: argparse.Namespace) -> int:
     Raises
     ------
     ConfigError
-        A seed in both ``--train-seeds`` and ``--test-seeds``, an unknown terrain or
-        scenario, a ``--duration-s`` shorter than one slip window
-        (:data:`features.slip_features.SLIP_WINDOW`, 2 s), or a duration (``--duration-s``, or an
-        ``--orchard-duration-s`` longer than it or NaN) the simulation refuses; checked
-        before any run is simulated.
+        A seed in both ``--train-seeds`` and ``--test-seeds``, an unknown scenario (an
+        unknown terrain is a usage error of ``--terrains``, any case), a ``--duration-s``
+        shorter than one slip window (:data:`features.slip_features.SLIP_WINDOW`, 2 s), or
+        a duration (``--duration-s``, or an ``--orchard-duration-s`` longer than it or NaN)
+        the simulation refuses; checked before any run is simulated.
     DataFormatError
         The ``--measured`` dataset cannot be read (read before any run is simulated).
     """

@@ -300,3 +300,17 @@ def test_a_multi_line_or_long_error_reaches_the_user_as_one_short_line(
     monkeypatch.setattr(slip_table, "main", fail)
     assert cli.main(["slip-table"]) == 2
     assert capsys.readouterr().err == f"terrain slip-table: error: {shown}\n"
+
+
+def test_slip_fit_takes_catalogue_terrains_in_any_case_each_once(capsys):
+    """``slip-fit --terrains ice`` was refused ("unknown terrains/scenarios ['ice']") where
+    ``simulate`` and the benchmarks take any case (est19's left-alone); a name given twice
+    in two cases ran the same cell twice."""
+    _, args = _parsed(["slip-fit", "--terrains", "ice", "Sandy_Loam"])
+    assert args.terrains == ["ICE", "SANDY_LOAM"]
+    for argv in (["--terrains", "ice", "ICE"], ["--terrains", "MUD"]):
+        with pytest.raises(SystemExit) as exc:
+            _parsed(["slip-fit", *argv])
+        assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "ICE given twice" in err and "unknown terrain 'MUD'" in err
