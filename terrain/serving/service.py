@@ -473,6 +473,10 @@ class StreamService:
         trusted = terrain if conf >= self.config.min_confidence else None
         if terrain is not None and trusted is None:
             flags.add("low_confidence")
+        if not self._filter.evidence and self.config.smoothing.dwell_s is None:
+            # without the filter's memory an unclassified window (flagged for its reason)
+            # is no evidence: its uniform 1/K (0.5 of two classes) is no confidence
+            trusted = None
         traction, braking, steady = self.targets.target_for(trusted, conf, stale)
         return Decision(float(t), terrain, conf, p, float(traction), float(braking),
                         float(steady), float(age), "|".join(sorted(flags)))
