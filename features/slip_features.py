@@ -32,7 +32,7 @@ from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
 from terrain.errors import ConfigError, config_positive, first_items, listed
 from terrain.io.align import interpolated_mean_count
-from terrain.run import TIME, Run
+from terrain.run import TIME, Run, runs_by_id
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
                                   pitch_std_from_accelerometer)
@@ -303,12 +303,13 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     Raises
     ------
     ConfigError
-        A run of the window set is not among ``runs`` or has no ``truth`` stream, or
+        A run of the window set is not among ``runs`` or has no ``truth`` stream, two of
+        ``runs`` share an id, or
         ``track_m`` is not a finite number > 0 (0 made ``chi`` infinite or NaN, a negative
         track made it negative).
     """
     config_positive("slip_targets", track_m=track_m)
-    by_id: Mapping[str, Run] = {r.run_id: r for r in runs}
+    by_id: Mapping[str, Run] = runs_by_id(runs, "slip_targets")
     out = pd.DataFrame(index=np.arange(len(ws)),
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
                        dtype=object)

@@ -31,7 +31,8 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from terrain.errors import DataFormatError, MissingColumnError, NonFiniteError
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
+                            duplicated)
 
 TIME = "t_s"
 IMU_CHANNELS = ("wx", "wy", "wz", "ax", "ay", "az")
@@ -235,3 +236,31 @@ class Run:
                                   f"finite median time step (median {step!r} s): no rate",
                                   self.source, TIME, int(bad[0]) if bad.size else None)
         return 1.0 / step
+
+
+def runs_by_id(runs, owner: str) -> dict[str, Run]:
+    """The runs keyed by their id, each id once.
+
+    Parameters
+    ----------
+    runs : iterable of Run
+        The runs given.
+    owner : str
+        The function's name, for the message.
+
+    Returns
+    -------
+    dict of str to Run
+
+    Raises
+    ------
+    ConfigError
+        Two runs share an id (a dict kept the last one without a word, and the windows of
+        the other were scored on it).
+    """
+    runs = list(runs)
+    repeated = duplicated(r.run_id for r in runs)
+    if repeated:
+        raise ConfigError(f"{owner}: run id(s) {repeated[:5]} given more than once (each "
+                          "run once: its windows are looked up by id)")
+    return {r.run_id: r for r in runs}

@@ -20,7 +20,7 @@ import pandas as pd
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, ShapeError,
                             config_positive)
-from terrain.run import TIME, Run
+from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
 
@@ -291,7 +291,7 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
     Raises
     ------
     ConfigError
-        A run of ``meta`` is not among ``runs`` (its id is named).
+        A run of ``meta`` is not among ``runs``, or two of ``runs`` share an id (named).
     EstimationError
         A run without an ``imu`` or ``wheels`` stream (its id is named).
     NonFiniteError
@@ -299,7 +299,7 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
         the heading integrates the gyro, so one would make every later window NaN.
     """
     out = np.full((len(meta), 2), np.nan)
-    by_id = {r.run_id: r for r in runs}
+    by_id = runs_by_id(runs, "observer_window_slip")
     for rid, idx in meta.groupby("run_id").indices.items():
         run = _run_with(by_id, rid, ("imu", "wheels"))
         run.require_finite("imu", ("wz",))
@@ -360,8 +360,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     Raises
     ------
     ConfigError
-        A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta`` (its id
-        is named).
+        A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta``, or two
+        of ``runs`` sharing an id (named).
     EstimationError
         A run without a ``wheels`` or ``truth`` stream (its id is named).
     NonFiniteError
@@ -375,7 +375,7 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         Wheel samples whose interpolated chi lies outside :data:`CHI_RANGE` were clipped to
         it (their count, and of how many runs).
     """
-    by_id = {r.run_id: r for r in runs}
+    by_id = runs_by_id(runs, "odometry_errors")
     rows = []
     n_clipped = n_samples = n_runs_clipped = 0
     for rid in run_ids:
