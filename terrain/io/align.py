@@ -86,7 +86,8 @@ def overlap_grid(times_s: Sequence[np.ndarray], rate_hz: float) -> np.ndarray:
     Raises
     ------
     ConfigError
-        If ``rate_hz`` is not a finite number > 0.
+        If ``rate_hz`` is not a finite number > 0, or no stream or an empty one is given
+        (Python's bare ``max() arg is an empty sequence`` or an IndexError before).
     """
     t0, n = _grid_span(times_s, rate_hz, "overlap_grid")
     return t0 + np.arange(n) / rate_hz
@@ -98,8 +99,12 @@ def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float,
     ``owner`` names the caller in the error of a ``rate_hz`` that is not finite and > 0
     (inf raised a bare OverflowError)."""
     config_positive(owner, rate_hz=rate_hz)
-    t0 = max(float(t[0]) for t in times_s)
-    t1 = min(float(t[-1]) for t in times_s)
+    try:
+        t0 = max(float(t[0]) for t in times_s)
+        t1 = min(float(t[-1]) for t in times_s)
+    except (ValueError, IndexError):   # (no cost on the usual call)
+        raise ConfigError(f"{owner} needs at least one stream and a sample in each, got "
+                          f"{[len(t) for t in times_s]} sample(s)") from None
     if t1 <= t0:
         return t0, 0
     return t0, int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1

@@ -277,3 +277,15 @@ def test_write_run_refuses_or_the_readers_give_the_run_back(edits):
                                    rtol=5e-9, atol=0)
         text = [c for c in frame.columns if frame[c].dtype.kind == "O"]
         assert got[text].equals(frame[text])
+
+
+@pytest.mark.parametrize("times", [[], [np.array([0.0, 1.0]), np.array([])]])
+def test_overlap_grid_without_a_sample_in_every_stream_is_a_config_error(times):
+    """io19's left-alone: no stream, or an empty one, raised Python's bare ValueError
+    (``max() arg is an empty sequence``) or IndexError."""
+    from terrain.io.align import overlap_grid, overlap_grid_tail
+
+    with pytest.raises(ConfigError, match="overlap_grid needs at least one stream"):
+        overlap_grid(times, 10.0)
+    with pytest.raises(ConfigError, match="overlap_grid_tail needs at least one stream"):
+        overlap_grid_tail(times, 10.0, 1.0, 3)
