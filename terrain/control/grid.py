@@ -367,7 +367,7 @@ def slip_limit_bound(terrain: str, peak_slip_open: float, cut: float = 0.5,
     s_lim = (1.0 - cut) * float(peak_slip_open)
     a_lim = traction_acceleration_limit(ter, s_lim)
     t_min = cruise_m_s / min(a_lim, accel_m_s2) if a_lim > 0 else math.inf
-    return {"terrain": terrain, "peak_slip_open": float(peak_slip_open), "slip_limit": s_lim,
+    return {"terrain": ter.name, "peak_slip_open": float(peak_slip_open), "slip_limit": s_lim,
             "steady_slip": steady_slip(ter), "slip_for_command": steady_slip(
                 ter, accel_m_s2 / G_M_S2),
             "accel_at_limit_m_s2": a_lim, "min_time_to_cruise_s": t_min,

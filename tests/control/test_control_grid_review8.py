@@ -63,3 +63,10 @@ def test_a_grid_seed_that_cannot_be_hashed_is_named_before_the_tuning_seed_check
         run_grid(["husky"], ["ICE"], ["straight_accel"], [[1]], {"husky": (1.0, 0.0)})
     with pytest.raises(ConfigError, match=r"evaluation seeds \[1000\] are tuning seeds"):
         run_grid(["husky"], ["ICE"], ["straight_accel"], [0, 1000], {"husky": (1.0, 0.0)})
+
+
+def test_the_slip_limit_bound_names_the_catalogue_terrain():
+    """A terrain given in another case is named as the catalogue names it, as every other
+    table of the grid (ctl19's left-alone: 'ice' was returned as given)."""
+    assert slip_limit_bound("ice", 0.1)["terrain"] == "ICE"
+    assert slip_limit_bound("ice", 0.1) == slip_limit_bound("ICE", 0.1)
