@@ -117,6 +117,20 @@ def make_run():
     return make
 
 
+@pytest.fixture
+def steady_husky_run():
+    """``make(imu_shift_s=0.0)``: 5 s of a Husky in a steady turn (wheels 0.5 / 0.6 m/s, gyro
+    0.2 rad/s, level), both streams at 100 Hz, the IMU's clock shifted by ``imu_shift_s``."""
+    def make(imu_shift_s: float = 0.0) -> Run:
+        t = np.arange(0.0, 5.0, 0.01)
+        wheels = pd.DataFrame({"t_s": t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t})
+        imu = pd.DataFrame({"t_s": t + imu_shift_s, "wz": 0.2 + 0 * t, "ax": 0 * t,
+                            "ay": 0 * t, "az": 9.81 + 0 * t})
+        return Run(run_id="test/ASPHALT/00", dataset="test", terrain="ASPHALT",
+                   streams={"wheels": wheels, "imu": imu}, source="in-memory test run")
+    return make
+
+
 @pytest.fixture(scope="session")
 def data_dir() -> Path:
     """The shipped ``data/`` folder of the repository."""

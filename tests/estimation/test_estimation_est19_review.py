@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 from hypothesis import given, settings, strategies as st
 
@@ -17,7 +16,6 @@ from terrain.estimation.prefilter import ema_filter, robust_noise_std
 from terrain.estimation.runner import SensorSamples, make_grid
 from terrain.estimation.skid_steer import estimate_skid_steer
 from terrain.estimation.slip_state import SlipStateModel
-from terrain.run import TIME, Run
 
 HALF_TRACK_M = 0.3
 
@@ -127,47 +125,38 @@ def test_agrimaro_ema_alpha_pairs_unchanged():
     assert AgriMaRoEKFSettings(ema_alpha=()).alpha("cam") == 0.0
 
 
-def _husky_run(imu_shift_s: float = 0.0) -> Run:
-    t = np.arange(0.0, 5.0, 0.01)
-    wheels = pd.DataFrame({TIME: t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t})
-    imu = pd.DataFrame({TIME: t + imu_shift_s, "wz": 0.2 + 0 * t, "ax": 0 * t, "ay": 0 * t,
-                        "az": 9.81 + 0 * t})
-    return Run(run_id="test/ASPHALT/00", dataset="test", terrain="ASPHALT",
-               streams={"wheels": wheels, "imu": imu}, source="in-memory test run")
-
-
 @pytest.mark.parametrize("offsets", [{"wheels": np.nan}, {"gyro": np.inf},
                                      {"gyro": -np.inf}])
-def test_skid_steer_refuses_a_non_finite_latency_as_the_latency(offsets):
+def test_skid_steer_refuses_a_non_finite_latency_as_the_latency(steady_husky_run, offsets):
     """A NaN or infinite latency made every timestamp of its sensor NaN / inf, refused as the
     stream's own timestamps ('stream 'wheels': sensor timestamps must be finite')."""
     with pytest.raises(ConfigError, match=r"time_offsets_s must be finite latencies"):
-        estimate_skid_steer(_husky_run(), time_offsets_s=offsets)
+        estimate_skid_steer(steady_husky_run(), time_offsets_s=offsets)
 
 
-def test_agrimaro_samples_refuse_a_non_finite_latency():
+def test_agrimaro_samples_refuse_a_non_finite_latency(steady_husky_run):
     with pytest.raises(ConfigError, match=r"time_offsets_s must be finite latencies"):
-        agrimaro_samples(_husky_run(), time_offsets_s={"imu": np.nan})
+        agrimaro_samples(steady_husky_run(), time_offsets_s={"imu": np.nan})
 
 
-def test_skid_steer_streams_that_do_not_overlap_name_the_run_and_spans():
+def test_skid_steer_streams_that_do_not_overlap_name_the_run_and_spans(steady_husky_run):
     """The grid spans the streams' overlap: none was make_grid's 'empty time span
     [10.0, 4.99] s', which named neither the run nor a stream."""
     with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
                        r"reads do not overlap in time \('wheels' 0\.\.4\.99 s, 'imu' "
                        r"10\.\.14\.99 s"):
-        estimate_skid_steer(_husky_run(imu_shift_s=10.0))
+        estimate_skid_steer(steady_husky_run(imu_shift_s=10.0))
     # a finite latency that still leaves an overlap runs on it
-    res = estimate_skid_steer(_husky_run(), time_offsets_s={"wheels": -3.0})
+    res = estimate_skid_steer(steady_husky_run(), time_offsets_s={"wheels": -3.0})
     assert res.t_s[0] == pytest.approx(3.0) and res.counts["wheels"]["outside"] == 300
 
 
-def test_skid_steer_streams_that_touch_at_one_instant_do_not_overlap():
+def test_skid_steer_streams_that_touch_at_one_instant_do_not_overlap(steady_husky_run):
     """One common instant is no span to filter over (make_grid needs t_end > t_start)."""
     last = np.arange(0.0, 5.0, 0.01)[-1]
     with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
                        r"reads do not overlap in time"):
-        estimate_skid_steer(_husky_run(imu_shift_s=last))
+        estimate_skid_steer(steady_husky_run(imu_shift_s=last))
 
 
 @pytest.mark.parametrize("kwargs", [{"p0_diag": 0.1}, {"q_diag": None}, {"r_diag": 0.1},
@@ -217,13 +206,13 @@ def test_prefilters_refuse_boolean_values():
 
 
 @pytest.mark.parametrize("sensors", ["imu", ""])
-def test_estimate_agrimaro_refuses_sensors_given_as_one_text(sensors):
+def test_estimate_agrimaro_refuses_sensors_given_as_one_text(steady_husky_run, sensors):
     """sensors='imu' was read letter by letter ("sensors names ['i', 'm', 'u'], not a
     sensor"), and sensors='' passed the check and dropped every sensor: a filter that only
     predicted."""
     with pytest.raises(ConfigError, match="sensors must be a sequence of sensor names, got "
                        "the text"):
-        estimate_agrimaro(_husky_run(), sensors=sensors)
+        estimate_agrimaro(steady_husky_run(), sensors=sensors)
 
 
 def test_effective_sample_size_takes_one_series():

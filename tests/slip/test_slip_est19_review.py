@@ -3,34 +3,23 @@
 from __future__ import annotations
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from terrain.errors import EstimationError, TimeStepError
-from terrain.run import TIME, Run
 from terrain.slip.baselines import fit_pitch_slip, pitch_slip
 from terrain.slip.estimate import estimate_skid_steer_slip_run
 
 
-def _husky_run(imu_shift_s: float = 0.0) -> Run:
-    t = np.arange(0.0, 5.0, 0.01)
-    wheels = pd.DataFrame({TIME: t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t})
-    imu = pd.DataFrame({TIME: t + imu_shift_s, "wz": 0.2 + 0 * t, "ax": 0 * t, "ay": 0 * t,
-                        "az": 9.81 + 0 * t})
-    return Run(run_id="test/ASPHALT/00", dataset="test", terrain="ASPHALT",
-               streams={"wheels": wheels, "imu": imu}, source="in-memory test run")
-
-
-def test_skid_steer_slip_run_names_the_run_for_streams_that_do_not_overlap():
+def test_skid_steer_slip_run_names_the_run_for_streams_that_do_not_overlap(steady_husky_run):
     """The slip-augmented filter of ``terrain estimate`` built its grid with make_grid too:
     'empty time span [10.0, 4.99] s', no run named."""
     outputs = {"physics": (np.array([1.0, 3.0]), np.zeros((2, 2)), np.full((2, 2), 0.05))}
     with pytest.raises(TimeStepError, match=r"run test/ASPHALT/00: the streams the filter "
                        r"reads do not overlap in time \('wheels' 0\.\.4\.99 s, 'imu' "
                        r"10\.\.14\.99 s\)"):
-        estimate_skid_steer_slip_run(_husky_run(imu_shift_s=10.0), "physics",
+        estimate_skid_steer_slip_run(steady_husky_run(imu_shift_s=10.0), "physics",
                                      outputs=outputs, lag="none")
-    est = estimate_skid_steer_slip_run(_husky_run(), "physics", outputs=outputs, lag="none")
+    est = estimate_skid_steer_slip_run(steady_husky_run(), "physics", outputs=outputs, lag="none")
     assert est.ekf.t_s[0] == 0.0 and est.slip.shape == (est.ekf.t_s.size, 2)
 
 
