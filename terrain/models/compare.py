@@ -30,7 +30,8 @@ from typing import Any, Iterator, NamedTuple, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_integer, config_positive, duplicated
+from terrain.errors import (ConfigError, NonFiniteInputError, config_integer, config_positive,
+                            duplicated)
 from terrain.models.cv import block_notes, cross_validate, grouped_units
 from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -234,8 +235,13 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     ------
     ConfigError
         Two rows of one window (same ``group`` and ``t_start_s``): rows of several seeds or
-        cells, whose histories would be averaged into each other.
+        cells, whose histories would be averaged into each other; ``k`` not an integer >= 1.
+    NonFiniteInputError
+        A probability is NaN or infinite (its windows, and the ``k - 1`` after them, would
+        all be decided as the first class).
     """
+    # (k = 0 averaged no window: 0/0, every decision the first class, without a word)
+    config_integer("history_predictions: k", k, 1)
     twice = predictions.duplicated(["group", "t_start_s"])
     if twice.any():
         first = predictions.loc[twice, ["group", "t_start_s"]].iloc[0]
@@ -247,6 +253,13 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     order = predictions.reset_index(drop=True).sort_values(["group", "t_start_s"],
                                                            kind="stable")
     proba = order[cols].to_numpy(dtype=float)
+    bad = ~np.isfinite(proba).all(axis=1)
+    if bad.any():
+        row = order[bad].iloc[0]
+        raise NonFiniteInputError(f"{int(bad.sum())} window(s) with a NaN or infinite "
+                                  f"probability among {cols} (e.g. {row['group']} at "
+                                  f"{row['t_start_s']:g} s): argmax would decide them as "
+                                  f"{classes[0]!r}")
     group = order["group"].to_numpy()
     n = len(order)
     first = np.ones(n, dtype=bool)

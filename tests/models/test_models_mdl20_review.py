@@ -1,0 +1,84 @@
+"""Review tests (mdl20): decision history, metrics against scikit-learn, run shares."""
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings, strategies as st
+from sklearn.metrics import (accuracy_score, balanced_accuracy_score, confusion_matrix,
+                             f1_score)
+
+from terrain.errors import ConfigError, NonFiniteInputError
+from terrain.models.compare import history_predictions
+from terrain.models.metrics import confusion, window_metrics
+
+
+def _frame(proba, groups, classes=("a", "b", "c")):
+    proba = np.asarray(proba, dtype=float)
+    frame = pd.DataFrame({"group": groups,
+                          "t_start_s": np.arange(len(groups), dtype=float)})
+    for j, c in enumerate(classes):
+        frame[f"proba_{c}"] = proba[:, j]
+    return frame
+
+
+@pytest.mark.parametrize("k", [0, -1, True, 2.5])
+def test_history_refuses_a_length_that_is_not_a_positive_integer(k):
+    frame = _frame([[0.2, 0.7, 0.1], [0.6, 0.3, 0.1]], ["r1", "r1"])
+    with pytest.raises(ConfigError, match="k"):
+        history_predictions(frame, ("a", "b", "c"), k)
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_history_refuses_probabilities_that_are_not_finite(bad):
+    frame = _frame([[0.2, 0.7, 0.1], [bad, bad, bad]], ["r1", "r2"])
+    with pytest.raises(NonFiniteInputError, match="proba_"):
+        history_predictions(frame, ("a", "b", "c"), 1)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.data())
+def test_history_is_the_argmax_of_the_causal_mean_of_the_last_k_windows(data):
+    n = data.draw(st.integers(1, 25))
+    k = data.draw(st.integers(1, 8))
+    proba = data.draw(st.lists(st.lists(st.integers(0, 4), min_size=3, max_size=3),
+                               min_size=n, max_size=n))
+    groups = data.draw(st.lists(st.sampled_from(["r1", "r2", "r3"]), min_size=n, max_size=n))
+    frame = _frame(np.asarray(proba, float) / 4, groups)
+    # shuffled rows: the decision follows each row, not its position
+    perm = data.draw(st.permutations(range(n)))
+    frame = frame.iloc[list(perm)]
+    got = history_predictions(frame, ("a", "b", "c"), k)
+    p = frame[["proba_a", "proba_b", "proba_c"]].to_numpy()
+    for i in range(n):
+        g, t = frame["group"].iloc[i], frame["t_start_s"].iloc[i]
+        earlier = (frame["group"].to_numpy() == g) & (frame["t_start_s"].to_numpy() <= t)
+        rows = np.flatnonzero(earlier)
+        rows = rows[np.argsort(frame["t_start_s"].to_numpy()[rows])][-k:]
+        total = p[rows].sum(axis=0)      # integer quarters: exact sums, exact ties
+        assert got[i] == "abc"[int(np.argmax(total))]
+
+
+labels = st.sampled_from(["a", "b", "c", "d"])
+
+
+@settings(max_examples=80, deadline=None)
+@given(st.data())
+def test_window_metrics_match_scikit_learn(data):
+    n = data.draw(st.integers(1, 30))
+    y_true = data.draw(st.lists(labels, min_size=n, max_size=n))
+    y_pred = data.draw(st.lists(labels, min_size=n, max_size=n))
+    classes = sorted(set(y_true) | set(y_pred))
+    m = window_metrics(y_true, y_pred, classes)
+    assert m["accuracy"] == pytest.approx(accuracy_score(y_true, y_pred))
+    with warnings.catch_warnings():   # a predicted class the truth lacks: a warning
+        warnings.simplefilter("ignore")
+        bal = balanced_accuracy_score(y_true, y_pred)
+        f1 = f1_score(y_true, y_pred, average="macro", zero_division=0)
+    assert m["balanced_accuracy"] == pytest.approx(bal)
+    assert m["macro_f1"] == pytest.approx(f1)
+    cm = confusion(y_true, y_pred, classes)
+    np.testing.assert_array_equal(cm.to_numpy(),
+                                  confusion_matrix(y_true, y_pred, labels=classes))
+    assert cm.to_numpy().sum() == n
