@@ -8,11 +8,13 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_score
 
-from terrain.errors import ShapeError, refuse_missing
+from terrain.errors import ConfigError, ShapeError, duplicated, refuse_missing
 
 
 def _check_windows(owner: str, **columns) -> None:
-    """Refuse per-window sequences of other lengths, or of no window (ShapeError)."""
+    """Refuse per-window sequences of other lengths, or of no window (ShapeError), and a
+    missing label or run (NonFiniteInputError: NaN was scored as a class ``'nan'``, None
+    failed in NumPy's sort, a missing prediction was left out of the run vote)."""
     lengths = {name: len(values) for name, values in columns.items()}
     names = " and ".join(", ".join(lengths).rsplit(", ", 1))
     if len(set(lengths.values())) > 1:
@@ -20,6 +22,21 @@ def _check_windows(owner: str, **columns) -> None:
                          f"{tuple(lengths.values())}")
     if not next(iter(lengths.values())):
         raise ShapeError(f"{owner}: {names} hold no window")
+    for name, values in columns.items():
+        refuse_missing(owner, name, values, "run(s)" if name == "groups" else "label(s)",
+                       "every window needs its class and its run")
+
+
+def _check_classes(owner: str, classes: Sequence[str]) -> list:
+    """``classes`` as a list; ConfigError where one is repeated (scored twice) or none."""
+    classes = list(classes)
+    repeated = duplicated(classes)
+    if repeated:
+        raise ConfigError(f"{owner}: classes must be distinct, {repeated} given more than "
+                          "once (a repeated class is scored twice)")
+    if not classes and owner == "confusion":
+        raise ConfigError("confusion: classes is empty: the matrix would have no row")
+    return classes
 
 
 def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
@@ -52,8 +69,13 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     ShapeError
         ``y_true`` and ``y_pred`` of other lengths, or empty (scikit-learn's bare
         "inconsistent numbers of samples" / "Found empty input array").
+    ConfigError
+        A class repeated in ``classes`` (it was scored twice in the means).
+    NonFiniteInputError
+        A missing label (NaN or None) in ``y_true`` or ``y_pred``.
     """
     _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
+    classes = _check_classes("window_metrics", classes)
     y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
     # a label outside classes counts too, after them: a predicted class the list lacks
     # was left out of macro-F1 (a held-out truth's classes, the model knowing one more)
@@ -93,11 +115,14 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
 
     Raises
     ------
+    ShapeError
+        ``y_pred`` and ``groups`` of other lengths (was pandas's bare "All arrays must be of
+        the same length"), or empty.
     NonFiniteInputError
-        A group is missing (NaN or None: pandas' ``groupby`` would leave its windows out of
-        the vote, and out of :func:`run_majority_accuracy`'s count).
+        A group or a prediction is missing (NaN or None: pandas' ``groupby`` would leave its
+        windows out of the vote, and out of :func:`run_majority_accuracy`'s count).
     """
-    refuse_missing("majority_vote", "groups", groups, "run(s)")
+    _check_windows("majority_vote", y_pred=y_pred, groups=groups)
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
     counts = frame.groupby(["g", "p"]).size().reset_index(name="n")
     counts = counts.sort_values(["g", "n", "p"], ascending=[True, False, True])
@@ -129,7 +154,7 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
         The three sequences not of one length (was pandas's bare "Length of values does
         not match length of index"), or empty (was NaN).
     NonFiniteInputError
-        A missing group (:func:`majority_vote`).
+        A missing label or group (:func:`majority_vote`).
     """
     _check_windows("run_majority_accuracy", y_true=y_true, y_pred=y_pred, groups=groups)
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
@@ -161,9 +186,14 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
     ShapeError
         ``y_true`` and ``y_pred`` of other lengths, or empty (scikit-learn's bare
         "inconsistent numbers of samples" / "Found empty input array").
+    ConfigError
+        ``classes`` empty, or a class repeated in it (a row of the matrix got no count).
+    NonFiniteInputError
+        A missing label (NaN or None) in ``y_true`` or ``y_pred``.
     """
     _check_windows("confusion", y_true=y_true, y_pred=y_pred)
-    cm = confusion_matrix(y_true, y_pred, labels=list(classes))
+    classes = _check_classes("confusion", classes)
+    cm = confusion_matrix(y_true, y_pred, labels=classes)
     return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
                         columns=pd.Index(classes, name="predicted"))
 

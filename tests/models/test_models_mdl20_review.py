@@ -9,9 +9,10 @@ from hypothesis import given, settings, strategies as st
 from sklearn.metrics import (accuracy_score, balanced_accuracy_score, confusion_matrix,
                              f1_score)
 
-from terrain.errors import ConfigError, NonFiniteInputError
+from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.models.compare import history_predictions
-from terrain.models.metrics import confusion, window_metrics
+from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
+                                    window_metrics)
 
 
 def _frame(proba, groups, classes=("a", "b", "c")):
@@ -82,3 +83,36 @@ def test_window_metrics_match_scikit_learn(data):
     np.testing.assert_array_equal(cm.to_numpy(),
                                   confusion_matrix(y_true, y_pred, labels=classes))
     assert cm.to_numpy().sum() == n
+
+
+@pytest.mark.parametrize("metric", [window_metrics, confusion])
+def test_metrics_refuse_repeated_classes(metric):
+    # a repeated class was scored twice: balanced accuracy 0.67 and macro-F1 0.44 for
+    # recalls (1, 0), and the confusion matrix gave one of the rows no count
+    with pytest.raises(ConfigError, match="'a'"):
+        metric(["a", "b"], ["a", "a"], ["a", "a", "b"])
+
+
+def test_confusion_refuses_no_class():
+    with pytest.raises(ConfigError, match="classes"):
+        confusion(["a", "b"], ["a", "a"], [])
+
+
+@pytest.mark.parametrize("missing", [None, np.nan])
+@pytest.mark.parametrize("where", ["y_true", "y_pred"])
+def test_metrics_refuse_missing_labels(missing, where):
+    # NaN became a class 'nan' (recall_nan), None a bare TypeError from np.unique
+    labels = {"y_true": ["a", "b", "a"], "y_pred": ["a", "b", "b"]}
+    labels[where] = [labels[where][0], missing, labels[where][2]]
+    with pytest.raises(NonFiniteInputError, match=where):
+        window_metrics(labels["y_true"], labels["y_pred"], ["a", "b"])
+    with pytest.raises(NonFiniteInputError, match=where):
+        confusion(labels["y_true"], labels["y_pred"], ["a", "b"])
+    with pytest.raises(NonFiniteInputError, match=where):
+        # None predictions: the vote left them out, and the accuracy of no run was NaN
+        run_majority_accuracy(labels["y_true"], labels["y_pred"], ["r1", "r1", "r2"])
+
+
+def test_majority_vote_refuses_sequences_of_other_lengths():
+    with pytest.raises(ShapeError, match="groups"):
+        majority_vote(["a", "b"], ["r1"])
