@@ -209,6 +209,34 @@ class CompareConfig:
                 for m in self.models]
 
 
+def _probabilities(owner: str, frame: pd.DataFrame, classes: Sequence[str],
+                   run: str) -> np.ndarray:
+    """``(n_rows, n_classes)`` the ``proba_<CLASS>`` columns of ``frame`` as floats.
+
+    ConfigError for classes repeated or without a column (pandas' bare KeyError),
+    NonFiniteInputError for a NaN or infinite probability (argmax decided its window as the
+    first class), naming the window by its ``run`` column and ``t_start_s``.
+    """
+    repeated = duplicated(classes)
+    if repeated:
+        raise ConfigError(f"{owner}: classes must be distinct, {repeated} given more than once")
+    cols = [f"proba_{c}" for c in classes]
+    absent = [c for c in cols if c not in frame.columns]
+    if absent:
+        raise ConfigError(f"{owner}: no column {absent} for the classes {list(classes)}; the "
+                          f"probability columns are "
+                          f"{[c for c in frame.columns if str(c).startswith('proba_')]}")
+    proba = frame[cols].to_numpy(dtype=float)
+    bad = ~np.isfinite(proba).all(axis=1)
+    if bad.any():
+        row = frame[bad].iloc[0]
+        raise NonFiniteInputError(f"{owner}: {int(bad.sum())} window(s) with a NaN or "
+                                  f"infinite probability among {cols} (e.g. {row[run]} at "
+                                  f"{row['t_start_s']:g} s): argmax would decide them as "
+                                  f"{classes[0]!r}")
+    return proba
+
+
 def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: int
                         ) -> np.ndarray:
     """Decisions from the class probabilities averaged over the last ``k`` windows of a run.
@@ -235,7 +263,8 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     ------
     ConfigError
         Two rows of one window (same ``group`` and ``t_start_s``): rows of several seeds or
-        cells, whose histories would be averaged into each other; ``k`` not an integer >= 1.
+        cells, whose histories would be averaged into each other; ``k`` not an integer >= 1;
+        ``classes`` repeated, or without its ``proba_<CLASS>`` column.
     NonFiniteInputError
         A probability is NaN or infinite (its windows, and the ``k - 1`` after them, would
         all be decided as the first class).
@@ -248,18 +277,10 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
         raise ConfigError(f"{int(twice.sum())} window(s) given more than once (e.g. "
                           f"{first['group']} at {first['t_start_s']:g} s): the decision "
                           "history takes the rows of one seed of one cell")
-    cols = [f"proba_{c}" for c in classes]
     # by row position: a frame's own index may repeat (frames joined by pd.concat)
     order = predictions.reset_index(drop=True).sort_values(["group", "t_start_s"],
                                                            kind="stable")
-    proba = order[cols].to_numpy(dtype=float)
-    bad = ~np.isfinite(proba).all(axis=1)
-    if bad.any():
-        row = order[bad].iloc[0]
-        raise NonFiniteInputError(f"{int(bad.sum())} window(s) with a NaN or infinite "
-                                  f"probability among {cols} (e.g. {row['group']} at "
-                                  f"{row['t_start_s']:g} s): argmax would decide them as "
-                                  f"{classes[0]!r}")
+    proba = _probabilities("history_predictions", order, classes, "group")
     group = order["group"].to_numpy()
     n = len(order)
     first = np.ones(n, dtype=bool)
@@ -343,13 +364,18 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     ConfigError
         No member, the members do not cover the same windows in the same folds, or
         ``weights`` are not one per member, negative or all 0
-        (:func:`~terrain.models.ensemble.normalised_weights`).
+        (:func:`~terrain.models.ensemble.normalised_weights`); ``classes`` repeated, or a
+        member without the ``proba_<CLASS>`` column of one.
+    NonFiniteInputError
+        A NaN or infinite probability (its window was decided as the first class).
     """
     if not len(members):     # (a bare IndexError before)
         raise ConfigError("soft_vote needs at least one member's predictions, got none")
     key = ["seed", "fold", "run", "t_start_s"]
     base = members[0].sort_values(key).reset_index(drop=True)
     cols = [f"proba_{c}" for c in classes]
+    for frame in members:
+        _probabilities("soft_vote", frame, classes, "run")
     w = (np.full(len(members), 1.0 / len(members)) if weights is None
          else normalised_weights(weights, len(members)))
     total = np.zeros((len(base), len(cols)))
@@ -357,7 +383,7 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
         frame = frame.sort_values(key).reset_index(drop=True)
         if not frame[key].equals(base[key]):
             raise ConfigError("soft_vote needs predictions of the same folds and windows")
-        total += wi * frame[cols].to_numpy()
+        total += wi * frame[cols].to_numpy(dtype=float)
     out = base.copy()
     out[cols] = total
     out["predicted"] = np.asarray(classes, dtype=object)[total.argmax(axis=1)]

@@ -10,7 +10,7 @@ from sklearn.metrics import (accuracy_score, balanced_accuracy_score, confusion_
                              f1_score)
 
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
-from terrain.models.compare import history_predictions
+from terrain.models.compare import history_predictions, soft_vote
 from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
                                     window_metrics)
 
@@ -116,3 +116,23 @@ def test_metrics_refuse_missing_labels(missing, where):
 def test_majority_vote_refuses_sequences_of_other_lengths():
     with pytest.raises(ShapeError, match="groups"):
         majority_vote(["a", "b"], ["r1"])
+
+
+def _member(proba_a, proba_b):
+    return pd.DataFrame({"seed": 0, "fold": 0, "run": ["r1", "r2"], "t_start_s": [0.0, 0.0],
+                         "proba_a": proba_a, "proba_b": proba_b})
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+def test_soft_vote_refuses_probabilities_that_are_not_finite(bad):
+    # a NaN member probability made the vote of its window NaN, decided as the first class
+    with pytest.raises(NonFiniteInputError, match="proba_"):
+        soft_vote([_member([0.4, 0.3], [0.6, 0.7]), _member([0.5, bad], [0.5, bad])],
+                  ["a", "b"])
+
+
+def test_soft_vote_names_a_class_without_probabilities():
+    with pytest.raises(ConfigError, match="proba_c"):      # pandas' bare KeyError before
+        soft_vote([_member([0.4, 0.3], [0.6, 0.7])], ["a", "c"])
+    with pytest.raises(ConfigError, match="'a'"):
+        soft_vote([_member([0.4, 0.3], [0.6, 0.7])], ["a", "a"])
