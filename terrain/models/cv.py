@@ -449,9 +449,18 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
         windows than ``n_splits``.
     NonFiniteInputError
         A run in ``groups`` is missing (NaN or None); the message names the first window.
+    ShapeError
+        ``groups`` not 1-D, or (``labels`` given) not of the length of ``labels``.
     """
     config_integer(setting, n_splits, 2)
     if groups is not None:
+        # (scikit-learn's "inconsistent numbers of samples" named neither; a 2-D groups
+        # failed as an unhashable list)
+        shape = np.shape(groups)
+        if len(shape) != 1 or (labels is not None and np.shape(labels)[:1] != shape):
+            also = "" if labels is None else f" as the labels {np.shape(labels)}"
+            raise ShapeError(f"{purpose}: groups {shape} must be 1-D, one run per training "
+                             f"window{also}")
         # every NaN is a new object: a set counted one run per missing window
         refuse_missing(purpose, "groups", groups, "run(s)", "every window needs its run")
     runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
@@ -511,6 +520,8 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
         message names the classes held out whole).
     NonFiniteInputError
         A missing run (:func:`require_runs`).
+    ShapeError
+        ``groups`` not 1-D or of another length than ``labels`` (:func:`require_runs`).
     """
     require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
     # (NumPy's bare "Seed must be between 0 and 2**32 - 1" otherwise)

@@ -11,6 +11,7 @@ from sklearn.metrics import (accuracy_score, balanced_accuracy_score, confusion_
 
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
 from terrain.models.compare import history_predictions, soft_vote
+from terrain.models.cv import class_keeping_split
 from terrain.models.metrics import (confusion, majority_vote, run_majority_accuracy,
                                     window_metrics)
 
@@ -136,3 +137,18 @@ def test_soft_vote_names_a_class_without_probabilities():
         soft_vote([_member([0.4, 0.3], [0.6, 0.7])], ["a", "c"])
     with pytest.raises(ConfigError, match="'a'"):
         soft_vote([_member([0.4, 0.3], [0.6, 0.7])], ["a", "a"])
+
+
+@pytest.mark.parametrize("cut", ["labels", "groups", "2-D groups"])
+def test_inner_split_names_runs_of_another_length(cut):
+    y = np.repeat(["a", "b", "a", "b"], 3)
+    g = np.repeat(["r1", "r2", "r3", "r4"], 3)
+    if cut == "labels":
+        y = y[:-1]
+    elif cut == "groups":
+        g = g[:-1]            # (scikit-learn's "inconsistent numbers of samples: [12, 12, 11]")
+    else:
+        g = g.reshape(-1, 1)  # (a bare TypeError: unhashable type 'list')
+    with pytest.raises(ShapeError, match="groups"):
+        class_keeping_split(y, g, 2, 0, "early stopping", "validation_splits",
+                            "early_stopping=False")
