@@ -47,9 +47,15 @@ def require_aeon() -> None:
 
 
 def _signal_windows(X) -> np.ndarray:
-    """``X`` as float32 windows; booleans (a mask handed over for the signals) and values
-    not finite in float32 refused (aeon refuses NaN only: inf gives finite features)."""
+    """``X`` as float32 windows; booleans (a mask handed over for the signals), no window
+    or no channel, and values not finite in float32 refused (aeon refuses NaN only: inf
+    gives finite features)."""
     X = np.asarray(X)
+    # (aeon's bare IndexError "index 0 is out of bounds" for no window, NumPy's "a must be
+    # greater than 0" for no channel)
+    if (X.ndim == 3 and 0 in X.shape[:2]) or (X.ndim == 2 and not len(X)):
+        raise ValueError(f"MiniRocket windows of shape {X.shape} hold no window or no "
+                         "channel: give (n_windows, n_channels, n_samples) windows")
     if X.dtype.kind == "b":     # aeon would read them as 0.0 and 1.0
         raise ValueError("MiniRocket windows hold booleans (a mask?) where signal values are "
                          "expected")
@@ -110,7 +116,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             aeon is not installed.
         ValueError
-            Boolean windows, or values not finite in float32.
+            Boolean windows, no window or no channel, or values not finite in float32.
         """
         require_aeon()
         try:
@@ -143,7 +149,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             ``fit`` has not been called.
         ValueError
-            Boolean windows, or values not finite in float32.
+            Boolean windows, no window or no channel, or values not finite in float32.
         """
         check_is_fitted(self, "rocket_")     # (was a bare AttributeError before fit)
         return np.asarray(self.rocket_.transform(_signal_windows(X)))

@@ -152,3 +152,18 @@ def test_inner_split_names_runs_of_another_length(cut):
     with pytest.raises(ShapeError, match="groups"):
         class_keeping_split(y, g, 2, 0, "early stopping", "validation_splits",
                             "early_stopping=False")
+
+
+@pytest.mark.parametrize("shape", [(0, 3, 64), (4, 0, 64)])
+def test_minirocket_refuses_no_window_or_no_channel(shape):
+    pytest.importorskip("aeon")
+    from terrain.models.minirocket import MiniRocketFeatures
+
+    # (aeon's bare IndexError "index 0 is out of bounds", or numpy's "a must be greater
+    # than 0 unless no samples are taken")
+    with pytest.raises(ValueError, match="no window|no channel"):
+        MiniRocketFeatures(n_kernels=84).fit(np.zeros(shape))
+    fitted = MiniRocketFeatures(n_kernels=84).fit(
+        np.random.default_rng(0).normal(size=(6, 3, 64)))
+    with pytest.raises(ValueError, match="no window|no channel"):
+        fitted.transform(np.zeros(shape))
