@@ -716,7 +716,8 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     ------
     ConfigError
         Unknown ``protocol``, or folds :func:`iter_splits` refuses; ``seeds`` empty, repeated
-        or not integers in [0, 2**32 - 1]; ``time_inference`` not an integer >= 0.
+        or not integers in [0, 2**32 - 1]; ``time_inference`` not an integer >= 0;
+        ``training`` holding windows with a unit of a class that no window of ``y`` holds.
     ShapeError
         ``X``, ``groups``, ``run_ids``, ``t_start_s`` or ``t_end_s`` not one entry per label.
     NonFiniteInputError
@@ -746,6 +747,16 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
         config_integer("seeds", seed, 0, 2 ** 32 - 1)
     config_integer("time_inference", time_inference, 0)
     classes = sorted(np.unique(y))
+    if training is not None:
+        # (a fold's model knew the class and the mapping of its probabilities onto the
+        # evaluation classes raised a bare "'C' is not in list")
+        # (windows without a unit are never trained on: their classes do not matter)
+        used = np.array([u is not None for u in training.units], dtype=bool)
+        extra = sorted(set(np.asarray(training.y)[used].astype(str).tolist()) - set(classes))
+        if extra:
+            raise ConfigError(f"cross_validate: the training cut holds trainable windows of "
+                              f"class(es) {extra} that no evaluation window holds (classes "
+                              f"{classes}): cut both from the same runs and labels")
     tasks = []
     for seed in seeds:
         for fold, (train, test) in enumerate(iter_splits(protocol, y, groups, seed, n_splits)):

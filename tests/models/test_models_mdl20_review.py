@@ -167,3 +167,40 @@ def test_minirocket_refuses_no_window_or_no_channel(shape):
         np.random.default_rng(0).normal(size=(6, 3, 64)))
     with pytest.raises(ValueError, match="no window|no channel"):
         fitted.transform(np.zeros(shape))
+
+
+def test_cross_validate_names_a_training_class_no_evaluation_window_holds():
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.models.cv import TrainingWindows, cross_validate
+
+    rng = np.random.default_rng(0)
+    y = np.repeat(["A", "B"], 20)
+    g = np.repeat([f"r{i}" for i in range(8)], 5)
+    X = rng.normal(size=(40, 3))
+    t0 = np.tile(np.arange(5.0), 8)
+    dense_y = y.copy()
+    dense_y[::7] = "C"      # a stretch of another terrain only the denser cut reaches
+    training = TrainingWindows(X.copy(), dense_y, g.astype(object))
+    # (the fold mapping its probabilities raised a bare "'C' is not in list")
+    with pytest.raises(ConfigError, match="'C'"):
+        cross_validate(lambda s: LogisticRegression(), X, y, g, g, t0, t0 + 1, seeds=(0,),
+                       n_splits=2, training=training)
+
+
+def test_cross_validate_ignores_the_class_of_training_windows_without_a_unit():
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.models.cv import TrainingWindows, cross_validate
+
+    rng = np.random.default_rng(0)
+    y = np.repeat(["A", "B"], 20)
+    g = np.repeat([f"r{i}" for i in range(8)], 5)
+    X = rng.normal(size=(40, 3))
+    t0 = np.tile(np.arange(5.0), 8)
+    units = np.append(g, "r8").astype(object)
+    units[-1] = None        # a run without evaluation windows: never trained on
+    training = TrainingWindows(np.vstack([X, X[:1]]), np.append(y, "C"), units)
+    report = cross_validate(lambda s: LogisticRegression(), X, y, g, g, t0, t0 + 1,
+                            seeds=(0,), n_splits=2, training=training)
+    assert report.classes == ["A", "B"]
