@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, NonFiniteInputError, config_integer, config_positive,
-                            duplicated)
+                            duplicated, refuse_missing)
 from terrain.models.cv import block_notes, cross_validate, grouped_units
 from terrain.models.ensemble import normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -267,10 +267,22 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
         ``classes`` repeated, or without its ``proba_<CLASS>`` column.
     NonFiniteInputError
         A probability is NaN or infinite (its windows, and the ``k - 1`` after them, would
-        all be decided as the first class).
+        all be decided as the first class), a start time not a finite number, or a group
+        missing (NaN or None).
     """
     # (k = 0 averaged no window: 0/0, every decision the first class, without a word)
     config_integer("history_predictions: k", k, 1)
+    # (a NaN start sorted last, as the run's latest window; a missing group made each of its
+    # windows a run of its own)
+    refuse_missing("history_predictions", "group", predictions["group"], "run(s)",
+                   "every window needs its run")
+    starts = pd.to_numeric(predictions["t_start_s"], errors="coerce").to_numpy(dtype=float)
+    if not np.isfinite(starts).all():
+        where = int(np.flatnonzero(~np.isfinite(starts))[0])
+        raise NonFiniteInputError(f"history_predictions: t_start_s holds "
+                                  f"{int((~np.isfinite(starts)).sum())} value(s) that are not "
+                                  f"finite numbers, the first at row {where}: a window's "
+                                  "place in its run decides its history")
     twice = predictions.duplicated(["group", "t_start_s"])
     if twice.any():
         first = predictions.loc[twice, ["group", "t_start_s"]].iloc[0]

@@ -204,3 +204,15 @@ def test_cross_validate_ignores_the_class_of_training_windows_without_a_unit():
     report = cross_validate(lambda s: LogisticRegression(), X, y, g, g, t0, t0 + 1,
                             seeds=(0,), n_splits=2, training=training)
     assert report.classes == ["A", "B"]
+
+
+@pytest.mark.parametrize("column, bad", [("t_start_s", np.nan), ("t_start_s", np.inf),
+                                         ("group", None), ("group", np.nan)])
+def test_history_refuses_windows_without_a_place_in_their_run(column, bad):
+    # a NaN start sorted last (taken as the run's latest window), a missing group made
+    # every such window a run of its own
+    frame = _frame([[0.2, 0.7, 0.1], [0.6, 0.3, 0.1], [0.5, 0.4, 0.1]], ["r1", "r1", "r1"])
+    frame[column] = frame[column].astype(object)
+    frame.loc[1, column] = bad
+    with pytest.raises(NonFiniteInputError, match=column):
+        history_predictions(frame, ("a", "b", "c"), 2)
