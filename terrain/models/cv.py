@@ -244,11 +244,25 @@ class TrainingWindows:
         ``(n_train_windows,)`` labels.
     units : numpy.ndarray
         ``(n_train_windows,)`` split unit of each window (``None``: never trained on).
+
+    Raises
+    ------
+    ShapeError
+        ``X``, ``y`` and ``units`` not of one length.
     """
 
     X: np.ndarray
     y: np.ndarray
     units: np.ndarray
+
+    def __post_init__(self) -> None:
+        # (parts of other lengths failed in every fold of cross_validate with a bare
+        # IndexError, after the folds before it were fitted)
+        lengths = {name: (value.shape[0] if hasattr(value, "shape") else len(value))
+                   for name, value in (("X", self.X), ("y", self.y), ("units", self.units))}
+        if len(set(lengths.values())) > 1:
+            raise ShapeError(f"TrainingWindows: X, y and units must hold one entry per "
+                             f"training window, got lengths {lengths}")
 
     def rows_of(self, train_units) -> np.ndarray:
         """Indices of the windows whose unit is among ``train_units``.

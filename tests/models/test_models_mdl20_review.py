@@ -216,3 +216,14 @@ def test_history_refuses_windows_without_a_place_in_their_run(column, bad):
     frame.loc[1, column] = bad
     with pytest.raises(NonFiniteInputError, match=column):
         history_predictions(frame, ("a", "b", "c"), 2)
+
+
+@pytest.mark.parametrize("cut", ["X", "y", "units"])
+def test_training_windows_refuse_parts_of_other_lengths(cut):
+    from terrain.models.cv import TrainingWindows
+
+    parts = {"X": np.zeros((6, 2, 4)), "y": np.array(list("AABBAB")),
+             "units": np.array(list("112233"), dtype=object)}
+    parts[cut] = parts[cut][:-1]     # (an IndexError in every fold of cross_validate)
+    with pytest.raises(ShapeError, match=cut):
+        TrainingWindows(**parts)
