@@ -15,6 +15,8 @@ classes. :class:`RunBalancedClassifier` fits a classifier with these weights.
 
 from __future__ import annotations
 
+import inspect
+
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.pipeline import Pipeline
@@ -127,6 +129,26 @@ def run_balanced(estimator) -> "RunBalancedClassifier":
     return RunBalancedClassifier(estimator, weight_param=param)
 
 
+def _check_weight_param(estimator, param: str) -> None:
+    """ConfigError where ``estimator``'s ``fit`` cannot take the weights as ``param``: a
+    Pipeline's ``<step>__...`` must name one of its steps, anything else's ``fit`` must name
+    ``param`` or take ``**kwargs`` (scikit-learn's bare TypeError "unexpected keyword
+    argument", or the Pipeline's ValueError, came from inside the fit)."""
+    if isinstance(estimator, Pipeline):
+        step, sep, _ = str(param).partition("__")
+        names = [name for name, _ in estimator.steps]
+        if not (sep and step in names):
+            raise ConfigError(f"weight_param {param!r} names no step of the Pipeline: give "
+                              f"'<step>__sample_weight' with a step among {names}")
+        return
+    fit_params = inspect.signature(estimator.fit).parameters
+    if param not in fit_params and not any(p.kind is p.VAR_KEYWORD
+                                           for p in fit_params.values()):
+        raise ConfigError(f"weight_param {param!r} is no parameter of "
+                          f"{type(estimator).__name__}.fit "
+                          f"({[n for n in fit_params if n not in ('X', 'y')]})")
+
+
 class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
     """A classifier fitted with :func:`within_class_run_weights` of its training windows.
 
@@ -174,7 +196,8 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``groups`` is missing.
+            ``groups`` is missing, or ``weight_param`` names no step of a Pipeline (or, for
+            another estimator, no parameter of its ``fit``).
         ShapeError
             ``y`` and ``groups`` differ in length.
         NonFiniteInputError
@@ -182,6 +205,7 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         """
         if groups is None:
             raise ConfigError("run-balanced weights need the run of every window (groups)")
+        _check_weight_param(self.estimator, self.weight_param)
         self.estimator_ = fit_with_groups(clone(self.estimator), X, y, groups, **{
             self.weight_param: within_class_run_weights(y, groups)})
         self.classes_ = self.estimator_.classes_

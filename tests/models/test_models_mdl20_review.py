@@ -227,3 +227,24 @@ def test_training_windows_refuse_parts_of_other_lengths(cut):
     parts[cut] = parts[cut][:-1]     # (an IndexError in every fold of cross_validate)
     with pytest.raises(ShapeError, match=cut):
         TrainingWindows(**parts)
+
+
+@pytest.mark.parametrize("param", ["svc__sample_weight", "weights"])
+def test_run_balanced_names_a_weight_parameter_its_classifier_lacks(param):
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    from terrain.models.weighting import RunBalancedClassifier
+
+    rng = np.random.default_rng(0)
+    y = np.repeat(["A", "B"], 20)
+    g = np.repeat([f"r{i}" for i in range(8)], 5)
+    X = rng.normal(size=(40, 3))
+    for est in (LogisticRegression(), make_pipeline(StandardScaler(), LogisticRegression())):
+        # (a bare TypeError "fit() got an unexpected keyword argument", or the Pipeline's
+        # ValueError on a parameter without '__')
+        with pytest.raises(ConfigError, match=param):
+            RunBalancedClassifier(est, weight_param=param).fit(X, y, groups=g)
+    pipe = make_pipeline(StandardScaler(), LogisticRegression())
+    RunBalancedClassifier(pipe, "logisticregression__sample_weight").fit(X, y, groups=g)
