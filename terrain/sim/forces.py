@@ -48,7 +48,7 @@ from typing import Mapping, NamedTuple
 
 import numpy as np
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_flags, config_positive
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import (SoilContact, rate_weakening_factor,
                                             soil_lateral_force_and_slope)
@@ -95,13 +95,24 @@ class LoadTransferParams:
     Parameters
     ----------
     cog_height_m : float
-        Height of the centre of gravity above the contact plane, m.
+        Height of the centre of gravity above the contact plane, m (finite, >= 0; 0: no
+        load transfer).
     source : str
         Where the value comes from.
+
+    Raises
+    ------
+    ConfigError
+        ``cog_height_m`` not a finite real number >= 0 (NaN gave NaN normal loads on every
+        step of a v2 run, a negative height loaded the inner wheels of a turn, ``True`` a
+        1 m high centre of gravity), named ``LoadTransferParams.cog_height_m``.
     """
 
     cog_height_m: float
     source: str
+
+    def __post_init__(self) -> None:
+        config_positive("LoadTransferParams", allow_zero=True, cog_height_m=self.cog_height_m)
 
 
 #: Centre-of-gravity heights by vehicle (read-only), for vehicles whose parameters carry
@@ -191,14 +202,36 @@ class CombinedSlipParams:
         walking speed slides at 0.1-0.5 m/s, where it has not fallen.
     friction_scale : Mapping[str, float]
         Factor on the friction of the catalogue curve of a rigid surface for this tyre, by
-        terrain name (:meth:`surface_curve`; physics v2 only); surfaces without an entry
-        keep the catalogue curve.
+        terrain name (:meth:`surface_curve`; physics v2 only), each finite and > 0; surfaces
+        without an entry keep the catalogue curve.
+
+    Raises
+    ------
+    ConfigError
+        ``side_force_factor`` not a real number in (0, 1] (NaN gave NaN side forces, a
+        negative factor a side force along the slide), ``hold_at_peak`` not ``True`` or
+        ``False``, ``friction_scale`` not a mapping of terrain names, or one of its factors
+        not a finite real number > 0 (NaN and inf passed :meth:`surface_curve`'s check);
+        each named ``CombinedSlipParams.<field>``.
     """
 
     side_force_factor: float
     source: str
     hold_at_peak: bool = False
     friction_scale: Mapping[str, float] = field(default_factory=lambda: MappingProxyType({}))
+
+    def __post_init__(self) -> None:
+        config_positive("CombinedSlipParams", side_force_factor=self.side_force_factor)
+        if not self.side_force_factor <= 1.0:
+            raise ConfigError(f"CombinedSlipParams.side_force_factor must be in (0, 1] (side "
+                              f"over longitudinal friction), got {self.side_force_factor!r}")
+        config_flags("CombinedSlipParams", hold_at_peak=self.hold_at_peak)
+        if not isinstance(self.friction_scale, Mapping) or not all(
+                isinstance(name, str) for name in self.friction_scale):
+            raise ConfigError(f"CombinedSlipParams.friction_scale must be a mapping of terrain "
+                              f"names to factors, got {self.friction_scale!r:.80}")
+        config_positive("CombinedSlipParams", **{
+            f"friction_scale[{name}]": factor for name, factor in self.friction_scale.items()})
 
     def surface_curve(self, terrain_name: str, curve):
         """Traction-slip curve of this tyre on a rigid surface (``friction_scale`` applied).
