@@ -26,7 +26,7 @@ from scipy.optimize import minimize_scalar
 
 from terrain.errors import config_integer
 from terrain.terramechanics.resistance import soil_resistance_coefficient
-from terrain.terramechanics.traction import traction_coefficient
+from terrain.terramechanics.traction import numeric_array, traction_coefficient
 
 
 def tractive_efficiency(terrain, slip: np.ndarray | float) -> np.ndarray:
@@ -47,11 +47,17 @@ def tractive_efficiency(terrain, slip: np.ndarray | float) -> np.ndarray:
         Efficiency in [0, 1) (dimensionless); 0 where the gross traction does not exceed the
         soil resistance (no net pull: all the drive power is lost).
 
+    Raises
+    ------
+    DataFormatError
+        A slip that is not a number or a numeric array (a boolean was taken as full slip;
+        :func:`~terrain.terramechanics.traction.numeric_array`).
+
     References
     ----------
     Wong (2008) ch. 4.2; Zoz & Grisso (2003), see the module docstring.
     """
-    s = np.abs(np.clip(np.asarray(slip, dtype=float), -1.0, 1.0))
+    s = np.abs(np.clip(numeric_array("tractive_efficiency", "slip", slip), -1.0, 1.0))
     mu = np.abs(traction_coefficient(terrain.curve, s))
     rho = soil_resistance_coefficient(terrain, s)
     gross = mu + terrain.hysteresis

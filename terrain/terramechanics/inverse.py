@@ -17,8 +17,8 @@ import numpy as np
 from scipy.optimize import brentq
 
 from terrain.errors import config_fraction, config_integer
-from terrain.terramechanics.traction import (TractionCurve, traction_coefficient,
-                                             traction_peak)
+from terrain.terramechanics.traction import (TractionCurve, numeric_array,
+                                             traction_coefficient, traction_peak)
 
 #: Points of the tabulated stable side (the inverse is linear between them).
 INVERSE_GRID_POINTS = 4001
@@ -182,8 +182,11 @@ def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,
     ------
     ConfigError
         ``points`` not an integer >= 2.
+    DataFormatError
+        ``mu`` not a number or a numeric array (a boolean was read as ``mu`` 1, text was
+        parsed, None a silent NaN; :func:`~terrain.terramechanics.traction.numeric_array`).
     """
-    m = np.asarray(mu, dtype=float)
+    m = numeric_array("slip_from_traction", "mu", mu)
     s_grid, mu_grid = stable_side(curve, points)
     mag = np.abs(m)
     slip = np.sign(m) * np.interp(mag, mu_grid, s_grid)

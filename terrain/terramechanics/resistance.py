@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from terrain.errors import ConfigError, config_numbers, config_positive
-from terrain.terramechanics.traction import traction_peak
+from terrain.terramechanics.traction import numeric_array, traction_peak
 
 G_M_S2 = 9.80665
 #: Regularisation speed of the sign of the torque-only rolling loss (hysteresis), m/s: the
@@ -45,8 +45,14 @@ def soil_resistance_coefficient(terrain, slip: np.ndarray | float) -> np.ndarray
     -------
     ndarray, shape (...)
         Dimensionless coefficient (force = coefficient x normal load).
+
+    Raises
+    ------
+    DataFormatError
+        A slip that is not a number or a numeric array (booleans, text, None;
+        :func:`~terrain.terramechanics.traction.numeric_array`).
     """
-    s = np.abs(np.clip(np.asarray(slip, dtype=float), -1.0, 1.0))
+    s = np.abs(np.clip(numeric_array("soil_resistance_coefficient", "slip", slip), -1.0, 1.0))
     return terrain.curve.coefficients(s, terrain.soil_resistance).resistance
 
 

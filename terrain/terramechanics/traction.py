@@ -656,6 +656,42 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     return g.reshape(a.shape), dg.reshape(a.shape)
 
 
+def numeric_array(owner: str, name: str, value: np.ndarray | float) -> np.ndarray:
+    """A slip or traction argument as a float array, refused unless it holds numbers.
+
+    The shared check of the relations that take a slip (or a traction coefficient):
+    :func:`traction_curve_and_slope`,
+    :func:`~terrain.terramechanics.resistance.soil_resistance_coefficient`,
+    :func:`~terrain.terramechanics.efficiency.tractive_efficiency` and
+    :func:`~terrain.terramechanics.inverse.slip_from_traction`.
+
+    Parameters
+    ----------
+    owner : str
+        The refusing function, for the message.
+    name : str
+        The argument's name, for the message.
+    value : float or ndarray, shape (...)
+        A number or an integer or float array (NaN passes: it is a number).
+
+    Returns
+    -------
+    ndarray, shape (...)
+        ``value`` as floats.
+
+    Raises
+    ------
+    DataFormatError
+        ``value`` not a number or a numeric (integer or float) array: a boolean was taken as
+        full slip, text was parsed ('0.1') or a bare ValueError ('abc'), None a silent NaN.
+    """
+    raw = np.asarray(value)
+    if raw.dtype.kind not in "iuf":
+        raise DataFormatError(f"{owner}: {name} must be a number or a numeric array, got "
+                              f"{value!r:.80} (dtype {raw.dtype})")
+    return raw.astype(float, copy=False)
+
+
 def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.ndarray:
     """Gross traction coefficient ``mu(s)``.
 
@@ -703,11 +739,7 @@ def traction_curve_and_slope(curve: TractionCurve, slip: np.ndarray | float
         taken as full slip, text was parsed ('0.1') or a bare ValueError ('abc'), None a
         silent NaN.
     """
-    s_raw = np.asarray(slip)
-    if s_raw.dtype.kind not in "iuf":
-        raise DataFormatError(f"traction_curve_and_slope: slip must be a number or a numeric "
-                              f"array, got {slip!r} (dtype {s_raw.dtype})")
-    s_raw = s_raw.astype(float, copy=False)
+    s_raw = numeric_array("traction_curve_and_slope", "slip", slip)
     s = np.clip(s_raw, -1.0, 1.0)
     mu, dmu = curve.coefficients(np.abs(s), 0.0)[:2]
     dmu = np.where(np.abs(s_raw) > 1.0, 0.0, dmu)

@@ -1,0 +1,52 @@
+"""Review sim20: the slip (and traction) arguments of the terramechanics relations are numbers,
+as :func:`terrain.terramechanics.traction.traction_coefficient` already demands: a boolean was
+taken as full slip, text parsed, None a silent NaN."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from terrain.errors import DataFormatError
+from terrain.terramechanics import (TERRAIN_NAMES, get_terrain, soil_resistance_coefficient,
+                                    traction_coefficient)
+from terrain.terramechanics.efficiency import tractive_efficiency
+from terrain.terramechanics.inverse import slip_from_traction
+
+NOT_NUMBERS = (True, False, np.array([True, False]), "0.1", ["0.1", "0.2"], None,
+               np.array([0.1, None], dtype=object))
+RELATIONS = {
+    "soil_resistance_coefficient": lambda x: soil_resistance_coefficient(
+        get_terrain("PLOUGHED"), x),
+    "tractive_efficiency": lambda x: tractive_efficiency(get_terrain("SNOW"), x),
+    "slip_from_traction": lambda x: slip_from_traction(get_terrain("ASPHALT").curve, x),
+    "traction_coefficient": lambda x: traction_coefficient(get_terrain("ASPHALT").curve, x),
+}
+
+
+@pytest.mark.parametrize("relation", sorted(RELATIONS))
+@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
+def test_a_slip_or_traction_that_is_not_numbers_is_refused(relation, bad):
+    # True was full slip (efficiency 0, the resistance at s = 1), '0.1' was parsed, None NaN
+    with pytest.raises(DataFormatError, match=r"must be a number or a numeric array"):
+        RELATIONS[relation](bad)
+
+
+@settings(max_examples=40, deadline=None)
+@given(name=st.sampled_from(TERRAIN_NAMES),
+       s=st.lists(st.floats(-1.0, 1.0), min_size=0, max_size=5),
+       as_int=st.booleans())
+def test_numbers_of_any_numeric_dtype_give_the_float_answer(name, s, as_int):
+    terrain = get_terrain(name)
+    x = np.round(s).astype(int) if as_int else np.asarray(s, dtype=float)
+    xf = x.astype(float)
+    np.testing.assert_array_equal(soil_resistance_coefficient(terrain, x),
+                                  soil_resistance_coefficient(terrain, xf))
+    np.testing.assert_array_equal(tractive_efficiency(terrain, x), tractive_efficiency(terrain, xf))
+    np.testing.assert_array_equal(slip_from_traction(terrain.curve, x).slip,
+                                  slip_from_traction(terrain.curve, xf).slip)
+    for one in (0, 0.3, np.float32(0.3), -1):
+        assert np.isfinite(soil_resistance_coefficient(terrain, one))
+        assert np.isfinite(tractive_efficiency(terrain, one))
