@@ -8,8 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import (ConfigError, EstimationError, config_integer, config_positive,
-                            refuse_booleans)
+from terrain.errors import (ConfigError, EstimationError, config_flags, config_integer,
+                            config_positive, duplicated, refuse_booleans)
 
 
 @register_jitable
@@ -249,6 +249,15 @@ def drive_inertia_kg_m2(vehicle) -> float:
     return float(vehicle.motor.wheel_inertia_kg_m2) * int(vehicle.wheels_per_motor)
 
 
+def _numbers(owner: str, name: str, value) -> np.ndarray:
+    """``value`` as a float array; a ConfigError naming ``owner.name`` for what is not
+    numbers (text, which NumPy would parse, None, which it would make NaN)."""
+    arr = np.asarray(value) if value is not None else np.asarray([None])
+    if arr.dtype.kind not in "iuf":
+        raise ConfigError(f"{owner}.{name} must hold numbers, got {value!r:.80}")
+    return arr.astype(float, copy=False)
+
+
 @dataclass(frozen=True)
 class ContactGeometry:
     """Ground contact of a vehicle as a set of points in the body frame.
@@ -271,6 +280,18 @@ class ContactGeometry:
         Rolling radius of wheels / drive sprockets, m.
     motor_names : tuple of str
         Name of each motor (``left``, ``right`` or ``1``, ``2``, ``3``).
+
+    Raises
+    ------
+    ConfigError
+        Named ``ContactGeometry.<field>``: ``positions_m`` not finite numbers of shape
+        ``(c, 2)`` with ``c >= 1``; ``motor_of_contact`` not integers of shape ``(c,)`` in
+        ``[0, n_motors)`` with every motor driving at least one contact (an index past the
+        motors was an IndexError in the simulator's first step, a motor without contacts a
+        NaN slip); ``load_share`` not finite numbers >= 0 of shape ``(c,)`` summing to 1
+        (shares summing to 2 doubled every normal load and force of a run without a word);
+        ``steered`` not ``True`` or ``False``; ``wheel_radius_m`` not a finite length > 0;
+        ``motor_names`` not a non-empty tuple of distinct names.
     """
 
     positions_m: np.ndarray
@@ -279,6 +300,36 @@ class ContactGeometry:
     steered: bool
     wheel_radius_m: float
     motor_names: tuple[str, ...]
+
+    def __post_init__(self) -> None:
+        owner = "ContactGeometry"
+        names = self.motor_names
+        if not (isinstance(names, tuple) and names and all(isinstance(x, str) for x in names)
+                and not duplicated(names)):
+            raise ConfigError(f"{owner}.motor_names must be a non-empty tuple of distinct "
+                              f"motor names, got {names!r:.80}")
+        config_flags(owner, steered=self.steered)
+        config_positive(owner, wheel_radius_m=self.wheel_radius_m)
+        refuse_booleans(ConfigError, **{f"{owner}.positions_m": self.positions_m,
+                                        f"{owner}.load_share": self.load_share})
+        pos = _numbers(owner, "positions_m", self.positions_m)
+        if pos.ndim != 2 or pos.shape[1] != 2 or not len(pos) or not np.isfinite(pos).all():
+            raise ConfigError(f"{owner}.positions_m must be finite (x, y) positions of shape "
+                              f"(n_contacts, 2), m, got shape {pos.shape}: {pos.tolist()!s:.80}")
+        n_c = len(pos)
+        motors = np.asarray(self.motor_of_contact)
+        if (motors.shape != (n_c,) or motors.dtype.kind not in "iu"
+                or not ((motors >= 0) & (motors < len(names))).all()
+                or len(np.unique(motors)) != len(names)):
+            raise ConfigError(f"{owner}.motor_of_contact must hold one motor index in "
+                              f"[0, {len(names)}) per contact ({n_c}), every motor driving at "
+                              f"least one, got {self.motor_of_contact!r:.80}")
+        share = _numbers(owner, "load_share", self.load_share)
+        if (share.shape != (n_c,) or not np.isfinite(share).all() or (share < 0).any()
+                or abs(float(share.sum()) - 1.0) > 1e-9):
+            raise ConfigError(f"{owner}.load_share must hold one finite share >= 0 per contact "
+                              f"({n_c}), summing to 1 (the weight), got "
+                              f"{self.load_share!r:.80}")
 
     @property
     def n_motors(self) -> int:
