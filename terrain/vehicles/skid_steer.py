@@ -14,7 +14,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba.extending import register_jitable
 
-from terrain.errors import EstimationError, ShapeError, config_positive
+from terrain.errors import ConfigError, EstimationError, ShapeError, config_positive
 from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
                                      float_arrays)
 
@@ -38,6 +38,16 @@ def _husky_motor() -> MotorParams:
                 "encoder_counts_per_rev 78000 ASSUMED (no source found): the order of a "
                 "1024-cycle encoder on the motor shaft through the 78.71:1 gearbox (80600 "
                 "cycles per wheel turn); a quantum of 8e-5 rad either way."))
+
+
+def _inside(params, inner: str, outer: str) -> None:
+    """Refuse a contact dimension ``inner`` not below the spacing ``outer`` of the contacts
+    it belongs to (ConfigError naming ``Class.inner``): the contacts would overlap."""
+    if not getattr(params, inner) < getattr(params, outer):
+        owner = type(params).__name__
+        raise ConfigError(f"{owner}.{inner} must be below {owner}.{outer} "
+                          f"({getattr(params, outer)} m), or the contacts overlap, got "
+                          f"{getattr(params, inner)} m (a length in cm or mm?)")
 
 
 @dataclass(frozen=True)
@@ -95,13 +105,17 @@ class HuskyParams:
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
         lengths, mass and inertia finite and > 0, quanta finite and >= 0, wheels per motor an
-        integer >= 1, ``motor`` a :class:`MotorParams`."""
+        integer >= 1, ``motor`` a :class:`MotorParams`, a contact patch narrower than the
+        track and shorter than the wheelbase (the left and right, or front and rear,
+        patches would overlap: a width given in cm, 11 for 0.11 m, was taken as 11 m)."""
         check_fields(self, positive=("track_m", "wheelbase_m", "wheel_radius_m", "mass_kg",
                                      "yaw_inertia_kg_m2", "contact_length_m",
                                      "contact_width_m"),
                      non_negative=("speed_quantum_m_s", "current_quantum_a"),
                      counts=("wheels_per_motor",))
         check_motor(self)
+        _inside(self, "contact_width_m", "track_m")
+        _inside(self, "contact_length_m", "wheelbase_m")
 
     def contact_geometry(self) -> ContactGeometry:
         """Four wheels at ``(+-L/2, +-B/2)``; motor 0 = left side (y > 0), motor 1 = right
@@ -189,12 +203,14 @@ class TrackedParams:
     def __post_init__(self) -> None:
         """Refuse impossible values (:class:`~terrain.errors.ConfigError` naming the field):
         lengths, mass and inertia finite and > 0, CoG height and Endo's exponent finite and
-        >= 0, segment and wheel counts integers >= 1, ``motor`` a :class:`MotorParams`."""
+        >= 0, segment and wheel counts integers >= 1, ``motor`` a :class:`MotorParams`, a
+        track narrower than the tread (the two tracks would overlap)."""
         check_fields(self, positive=("track_m", "track_width_m", "track_length_m", "mass_kg",
                                      "sprocket_radius_m", "yaw_inertia_kg_m2"),
                      non_negative=("cog_height_m", "slip_parameter_n"),
                      counts=("n_segments", "wheels_per_motor"))
         check_motor(self)
+        _inside(self, "track_width_m", "track_m")
 
     @property
     def wheel_radius_m(self) -> float:

@@ -73,3 +73,28 @@ def test_any_normalised_nonnegative_shares_and_positive_radius_are_kept(w, radiu
     share = np.asarray(w) / np.sum(w)
     geo = replace(GEOMETRY, load_share=share, wheel_radius_m=radius, steered=steered)
     assert geo.load_share is share and geo.wheel_radius_m == radius
+
+
+@pytest.mark.parametrize("vehicle, fields, name", [
+    # a patch in cm (11 for 0.11 m) is wider than the track: left and right wheels overlap
+    (HUSKY, dict(contact_width_m=11.0), "contact_width_m"),
+    (HUSKY, dict(contact_width_m=0.5708), "contact_width_m"),
+    (HUSKY, dict(track_m=0.1), "contact_width_m"),
+    # a footprint longer than the wheelbase: front and rear patches overlap
+    (HUSKY, dict(contact_length_m=8.0), "contact_length_m"),
+    (TRACKED, dict(track_width_m=15.0), "track_width_m"),
+    (TRACKED, dict(track_width_m=0.393), "track_width_m"),
+])
+def test_contacts_wider_than_the_track_or_longer_than_the_wheelbase_are_refused(
+        vehicle, fields, name):
+    with pytest.raises(ConfigError, match=rf"{type(vehicle).__name__}\.{name}"):
+        replace(vehicle, **fields)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(0.05, 2.0), st.floats(0.01, 0.99), st.floats(0.01, 0.99))
+def test_contacts_inside_the_track_and_wheelbase_are_kept(track, width_frac, length_frac):
+    h = replace(HUSKY, track_m=track, contact_width_m=width_frac * track,
+                contact_length_m=length_frac * HUSKY.wheelbase_m)
+    t = replace(TRACKED, track_m=track, track_width_m=width_frac * track)
+    assert h.contact_width_m < h.track_m and t.track_width_m < t.track_m
