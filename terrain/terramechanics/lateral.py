@@ -55,8 +55,8 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import (ConfigError, config_flags, config_integer, config_numbers,
-                            config_positive)
+from terrain.errors import (ConfigError, ShapeError, config_flags, config_integer,
+                            config_numbers, config_positive)
 from terrain.terramechanics.resistance import (bekker_sinkage_m, check_slide_speed,
                                                compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
@@ -633,9 +633,10 @@ def combined_shear_shares(a_long: np.ndarray, a_lat: np.ndarray,
 
     Parameters
     ----------
-    a_long, a_lat : ndarray, shape (c,)
+    a_long, a_lat : float or ndarray, shape (c,)
         Longitudinal and lateral shear displacement at the rear of the patch over their
-        moduli (dimensionless, sign ignored).
+        moduli (dimensionless, sign ignored); broadcast together (a single number stands
+        for every contact).
     residual_ratio : float or None
         ``K_r`` of the hump-type curve (:attr:`SoilParams.residual_ratio`); None =
         exponential.
@@ -644,10 +645,24 @@ def combined_shear_shares(a_long: np.ndarray, a_lat: np.ndarray,
     -------
     share_long, share_lat : ndarray, shape (c,)
         Dimensionless, in (0, 1], for the hump-type curve too (``h`` never rises: the
-        shear curve never exceeds twice its patch mean).
+        shear curve never exceeds twice its patch mean); the broadcast shape of the inputs.
+
+    Raises
+    ------
+    ShapeError
+        ``a_long`` and ``a_lat`` of shapes that do not broadcast (a scalar with an array
+        was a bare ValueError of ``np.concatenate``).
     """
     a_x = np.abs(np.asarray(a_long, dtype=float))
     a_y = np.abs(np.asarray(a_lat, dtype=float))
+    if a_x.shape != a_y.shape:
+        try:
+            a_x, a_y = np.broadcast_arrays(a_x, a_y)
+        except ValueError:
+            raise ShapeError(f"combined_shear_shares: a_long of shape {a_x.shape} and a_lat "
+                             f"of shape {a_y.shape} do not broadcast") from None
+    shape = a_x.shape
+    a_x, a_y = a_x.reshape(-1), a_y.reshape(-1)
     a = np.hypot(a_x, a_y)
     args = np.concatenate([a, a_x, a_y])
     g = shear_mobilisation(args, residual_ratio)
@@ -655,7 +670,7 @@ def combined_shear_shares(a_long: np.ndarray, a_lat: np.ndarray,
     pos = args > 1e-12
     h = np.where(pos, g / np.where(pos, args, 1.0), 0.5)
     h_res, h_x, h_y = h[:n], h[n:2 * n], h[2 * n:]
-    return h_res / h_x, h_res / h_y
+    return (h_res / h_x).reshape(shape), (h_res / h_y).reshape(shape)
 
 
 def slip_sunk_strength_n(contact: SoilContact, normal_load_n: np.ndarray,

@@ -50,3 +50,28 @@ def test_numbers_of_any_numeric_dtype_give_the_float_answer(name, s, as_int):
     for one in (0, 0.3, np.float32(0.3), -1):
         assert np.isfinite(soil_resistance_coefficient(terrain, one))
         assert np.isfinite(tractive_efficiency(terrain, one))
+
+
+@settings(max_examples=40, deadline=None)
+@given(a_long=st.floats(0.0, 50.0), a_lat=st.lists(st.floats(0.0, 50.0), min_size=1, max_size=4),
+       kr=st.sampled_from((None, 0.4, 0.9)))
+def test_combined_shear_shares_broadcast_a_single_displacement_over_the_contacts(
+        a_long, a_lat, kr):
+    # a scalar longitudinal displacement with one lateral per contact was a bare ValueError
+    # ('all the input arrays must have same number of dimensions')
+    from terrain.terramechanics.lateral import combined_shear_shares
+    lat = np.asarray(a_lat)
+    got = combined_shear_shares(a_long, lat, kr)
+    want = combined_shear_shares(np.full_like(lat, a_long), lat, kr)
+    for g, w in zip(got, want):
+        assert g.shape == lat.shape
+        np.testing.assert_array_equal(g, w)
+    one = combined_shear_shares(a_long, a_lat[0], kr)
+    assert np.shape(one[0]) == () and one[0] == got[0][0]
+
+
+def test_combined_shear_shares_of_shapes_that_do_not_broadcast_is_a_shape_error():
+    from terrain.errors import ShapeError
+    from terrain.terramechanics.lateral import combined_shear_shares
+    with pytest.raises(ShapeError, match=r"combined_shear_shares.*\(2,\).*\(3,\)"):
+        combined_shear_shares(np.zeros(2), np.zeros(3))
