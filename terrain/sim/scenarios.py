@@ -26,7 +26,7 @@ from typing import Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_positive
+from terrain.errors import ConfigError, config_flags, config_positive
 
 SCENARIO_NAMES: tuple[str, ...] = ("straight_accel", "orchard", "slope_turn", "spin", "random")
 #: Inclination of each scenario's ground plane (rising along world +x), rad (read-only):
@@ -142,14 +142,16 @@ def make_commands(name: str, duration_s: float, dt_s: float, rng: np.random.Gene
     ConfigError
         Unknown scenario, a physics step or a duration that is not a finite time > 0, a
         duration that rounds to less than one physics step, a speed limit that is not
-        finite and > 0, a track that is not finite and >= 0, or ``random`` without a
-        :class:`numpy.random.Generator`.
+        finite and > 0, a track that is not finite and >= 0, ``omnidirectional`` not
+        ``True`` or ``False``, or ``random`` without a :class:`numpy.random.Generator`.
     """
     if name not in SCENARIO_NAMES:
         raise ConfigError(f"unknown scenario {name!r}; valid choices: {', '.join(SCENARIO_NAMES)}")
     config_positive("make_commands", dt_s=dt_s, duration_s=duration_s,
                     max_speed_m_s=max_speed_m_s)
     config_positive("make_commands", allow_zero=True, track_m=track_m)
+    # 'no' was truthy: lateral commands for a skid-steer, refused later as a v_y command
+    config_flags("make_commands", omnidirectional=omnidirectional)
     if name == "random" and not isinstance(rng, np.random.Generator):
         # None or a seed was an AttributeError ('NoneType' object has no attribute 'uniform')
         raise ConfigError(f"make_commands.rng must be a numpy.random.Generator for the "

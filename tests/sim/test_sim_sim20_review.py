@@ -78,3 +78,20 @@ def test_a_tyre_in_range_is_kept(k_s, hold, factor):
                               friction_scale=MappingProxyType({"ICE": factor}))
     assert (tyre.side_force_factor, tyre.hold_at_peak, tyre.friction_scale["ICE"]) == (
         k_s, hold, factor)
+
+
+@pytest.mark.parametrize("bad", ("no", "False", 1, 0, None, np.float64(1.0)))
+def test_make_commands_omnidirectional_must_be_a_boolean(bad):
+    # 'no' was truthy: the random scenario drew lateral commands for a skid-steer, which
+    # integrate then refused with a message about v_y instead of the flag
+    from terrain.sim.scenarios import make_commands
+    with pytest.raises(ConfigError, match=r"make_commands\.omnidirectional"):
+        make_commands("random", 10.0, 0.01, np.random.default_rng(0), 1.0, omnidirectional=bad)
+
+
+@pytest.mark.parametrize("flag", (True, False, np.bool_(True)))
+def test_make_commands_takes_true_false_and_numpy_booleans(flag):
+    from terrain.sim.scenarios import make_commands
+    cmd = make_commands("random", 10.0, 0.01, np.random.default_rng(0), 1.0,
+                        omnidirectional=flag)
+    assert bool(np.any(cmd.twist[:, 1] != 0.0)) == bool(flag)
