@@ -189,37 +189,46 @@ class SoilParams:
     slip_compaction: bool = False
 
     def __post_init__(self) -> None:
-        config_numbers(self.name, optional=_OPTIONAL_SOIL_NUMBERS, **{
+        try:
+            self._check()
+        except ConfigError as err:
+            # the checks name SoilParams.<field>; the soil's name says which entry
+            raise ConfigError(f"{err} (soil {self.name!r})") from None
+
+    def _check(self) -> None:
+        """The checks of :meth:`__post_init__` (ConfigError naming ``SoilParams.<field>``)."""
+        owner = "SoilParams"
+        config_numbers(owner, optional=_OPTIONAL_SOIL_NUMBERS, **{
             key: getattr(self, key) for key in _SOIL_NUMBERS + _OPTIONAL_SOIL_NUMBERS})
         positive = {"n": self.n, "shear_modulus_m": self.shear_modulus_m}
         if self.lateral_shear_modulus_m is not None:
             positive["lateral_shear_modulus_m"] = self.lateral_shear_modulus_m
-        config_positive(self.name, **positive)
-        config_positive(self.name, allow_zero=True, cohesion_pa=self.cohesion_pa,
+        config_positive(owner, **positive)
+        config_positive(owner, allow_zero=True, cohesion_pa=self.cohesion_pa,
                         unit_weight_n_m3=self.unit_weight_n_m3)
         for key, value in (("k_c", self.k_c), ("k_phi", self.k_phi)):
             if not np.isfinite(value):
-                raise ConfigError(f"{self.name}: {key} must be finite, got {value}")
+                raise ConfigError(f"{owner}.{key} must be finite, got {value}")
         if not 0.0 < self.friction_angle_deg < 90.0:
-            raise ConfigError(f"{self.name}: friction_angle_deg must be in (0, 90) degrees "
+            raise ConfigError(f"{owner}.friction_angle_deg must be in (0, 90) degrees "
                               f"(the bearing-capacity factors divide by tan phi), got "
                               f"{self.friction_angle_deg}")
         if self.rate_weakening_speed_m_s is not None and not (
                 np.isfinite(self.rate_weakening_speed_m_s)
                 and self.rate_weakening_speed_m_s > 0.0):
-            raise ConfigError(f"{self.name}: rate_weakening_speed_m_s must be a finite "
+            raise ConfigError(f"{owner}.rate_weakening_speed_m_s must be a finite "
                               f"speed > 0 m/s or None, got {self.rate_weakening_speed_m_s}")
         if self.slip_sinkage_ratio is not None and not (
                 np.isfinite(self.slip_sinkage_ratio) and self.slip_sinkage_ratio >= 0.0):
-            raise ConfigError(f"{self.name}: slip_sinkage_ratio must be a finite value >= 0 "
+            raise ConfigError(f"{owner}.slip_sinkage_ratio must be a finite value >= 0 "
                               f"or None, got {self.slip_sinkage_ratio}")
-        config_flags(self.name, combined_shear=self.combined_shear,
+        config_flags(owner, combined_shear=self.combined_shear,
                      slip_compaction=self.slip_compaction)
         if self.layer_depth_m is not None and not self.layer_depth_m > 0:
-            raise ConfigError(f"{self.name}: layer_depth_m must be > 0 m or None, got "
+            raise ConfigError(f"{owner}.layer_depth_m must be > 0 m or None, got "
                               f"{self.layer_depth_m}")
         if self.residual_ratio is not None and not 0.0 < self.residual_ratio < 1.0:
-            raise ConfigError(f"{self.name}: residual_ratio must be in (0, 1) or None, got "
+            raise ConfigError(f"{owner}.residual_ratio must be in (0, 1) or None, got "
                               f"{self.residual_ratio}")
 
     @property

@@ -241,11 +241,8 @@ class BurckhardtCurve:
     source: str = ""
 
     def __post_init__(self) -> None:
-        config_numbers("BurckhardtCurve", c1=self.c1, c2=self.c2, c3=self.c3)
-        if not (np.isfinite([self.c1, self.c2, self.c3]).all() and self.c1 > 0.0
-                and self.c2 > 0.0 and self.c3 >= 0.0):
-            raise ConfigError(f"BurckhardtCurve: need finite c1 > 0, c2 > 0 and c3 >= 0, got "
-                              f"{self.c1}, {self.c2}, {self.c3}")
+        config_positive("BurckhardtCurve", c1=self.c1, c2=self.c2)
+        config_positive("BurckhardtCurve", allow_zero=True, c3=self.c3)
         if not self.c1 * self.c2 > self.c3:
             raise ConfigError(f"BurckhardtCurve: need c1 c2 > c3 (mu must rise from 0 at s = 0: "
                               f"slope c1 c2 - c3), got c1 c2 = {self.c1 * self.c2} and c3 = "

@@ -75,3 +75,33 @@ def test_combined_shear_shares_of_shapes_that_do_not_broadcast_is_a_shape_error(
     from terrain.terramechanics.lateral import combined_shear_shares
     with pytest.raises(ShapeError, match=r"combined_shear_shares.*\(2,\).*\(3,\)"):
         combined_shear_shares(np.zeros(2), np.zeros(3))
+
+
+SOIL_BAD = {"n": -1.0, "k_c": float("nan"), "k_phi": float("inf"), "cohesion_pa": -1.0,
+            "friction_angle_deg": 0.0, "shear_modulus_m": 0.0, "unit_weight_n_m3": True,
+            "lateral_shear_modulus_m": -0.01, "layer_depth_m": 0.0, "residual_ratio": 1.0,
+            "slip_sinkage_ratio": float("nan"), "rate_weakening_speed_m_s": 0.0,
+            "combined_shear": 1, "slip_compaction": "no"}
+
+
+@pytest.mark.parametrize("field", sorted(SOIL_BAD))
+def test_soil_params_refusals_name_the_class_field_and_the_soil(field):
+    # the messages began with the soil's name ('snow (U.S., Harrison): k_c must be ...'),
+    # naming neither SoilParams nor, for config_* checks, the field as Class.field
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+    from terrain.terramechanics.lateral import SOILS
+    with pytest.raises(ConfigError, match=rf"SoilParams\.{field} .*\(soil 'snow \(U\.S\., "
+                                          rf"Harrison\)'\)"):
+        replace(SOILS["SNOW"], **{field: SOIL_BAD[field]})
+
+
+@pytest.mark.parametrize("field, value", [("c1", float("nan")), ("c2", -1.0), ("c3", -0.1),
+                                          ("c1", float("inf"))])
+def test_burckhardt_refusals_name_the_coefficient(field, value):
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=rf"BurckhardtCurve\.{field}"):
+        replace(get_terrain("ASPHALT").curve, **{field: value})
