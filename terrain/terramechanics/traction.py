@@ -306,13 +306,13 @@ class JanosiCurve:
         config_numbers("JanosiCurve", optional=("residual_ratio",), mu_max=self.mu_max,
                        shear_slip=self.shear_slip, residual_ratio=self.residual_ratio)
         if not (np.isfinite(self.mu_max) and self.mu_max >= 0.0):
-            raise ConfigError(f"JanosiCurve: mu_max must be a finite value >= 0, got "
+            raise ConfigError(f"JanosiCurve.mu_max must be a finite value >= 0, got "
                               f"{self.mu_max}")
         if not (np.isfinite(self.shear_slip) and self.shear_slip > 0.0):
-            raise ConfigError(f"JanosiCurve: shear_slip K/L must be a finite value > 0, got "
+            raise ConfigError(f"JanosiCurve.shear_slip (K/L) must be a finite value > 0, got "
                               f"{self.shear_slip}")
         if self.residual_ratio is not None and not 0.0 < self.residual_ratio < 1.0:
-            raise ConfigError(f"JanosiCurve: residual_ratio must be in (0, 1) or None, got "
+            raise ConfigError(f"JanosiCurve.residual_ratio must be in (0, 1) or None, got "
                               f"{self.residual_ratio}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
@@ -422,7 +422,7 @@ class BrixiusCurve:
     def __post_init__(self) -> None:
         config_numbers("BrixiusCurve", mobility_number=self.mobility_number)
         if not (np.isfinite(self.mobility_number) and self.mobility_number > 0.0):
-            raise ConfigError(f"BrixiusCurve: mobility_number must be a finite number > 0, got "
+            raise ConfigError(f"BrixiusCurve.mobility_number must be a finite number > 0, got "
                               f"{self.mobility_number}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
@@ -464,11 +464,27 @@ class TractionAndResistance:
         constant ``soil_resistance`` where its law is that constant).
     source : str
         Citation (the two curves' sources).
+
+    Raises
+    ------
+    ConfigError
+        ``traction`` or ``resistance`` not a traction curve (no ``coefficients`` method),
+        named ``TractionAndResistance.<field>``.
     """
 
     traction: TractionCurve
     resistance: TractionCurve
     source: str = ""
+
+    def __post_init__(self) -> None:
+        """Refuse parts that are not traction curves (a terrain name, None: an
+        AttributeError naming no field at the first use), naming the field."""
+        for name in ("traction", "resistance"):
+            part = getattr(self, name)
+            if not callable(getattr(part, "coefficients", None)):
+                raise ConfigError(f"TractionAndResistance.{name} must be a traction curve "
+                                  f"(BurckhardtCurve, JanosiCurve, BrixiusCurve...), got "
+                                  f"{part!r:.80}")
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
         """``mu`` of :attr:`traction`, resistance of :attr:`resistance`.

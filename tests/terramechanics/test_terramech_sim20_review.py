@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import DataFormatError
-from terrain.terramechanics import (TERRAIN_NAMES, get_terrain, soil_resistance_coefficient,
-                                    traction_coefficient)
+from terrain.terramechanics import (TERRAIN_NAMES, BrixiusCurve, JanosiCurve,
+                                    TractionAndResistance, get_terrain,
+                                    soil_resistance_coefficient, traction_coefficient)
 from terrain.terramechanics.efficiency import tractive_efficiency
 from terrain.terramechanics.inverse import slip_from_traction
 
@@ -105,3 +106,23 @@ def test_burckhardt_refusals_name_the_coefficient(field, value):
     from terrain.errors import ConfigError
     with pytest.raises(ConfigError, match=rf"BurckhardtCurve\.{field}"):
         replace(get_terrain("ASPHALT").curve, **{field: value})
+
+
+ASPHALT_CURVE = get_terrain("ASPHALT").curve
+
+
+@pytest.mark.parametrize("make, field", [
+    (lambda: JanosiCurve(float("nan"), 0.1), "mu_max"),
+    (lambda: JanosiCurve(0.5, 0.0), "shear_slip"),
+    (lambda: JanosiCurve(0.5, 0.1, residual_ratio=1.0), "residual_ratio"),
+    (lambda: BrixiusCurve(-3.0), "mobility_number"),
+    (lambda: TractionAndResistance("ASPHALT", ASPHALT_CURVE), "traction"),
+    (lambda: TractionAndResistance(ASPHALT_CURVE, None), "resistance"),
+])
+def test_curve_refusals_name_class_and_field(make, field):
+    # 'JanosiCurve: mu_max must be ...'; TractionAndResistance took a name or None and failed
+    # at its first use with an AttributeError naming no field
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=rf"(JanosiCurve|BrixiusCurve|TractionAndResistance)"
+                                          rf"\.{field}"):
+        make()
