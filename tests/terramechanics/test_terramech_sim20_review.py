@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import DataFormatError
-from terrain.terramechanics import (TERRAIN_NAMES, BrixiusCurve, JanosiCurve,
+from terrain.terramechanics import (TERRAIN_NAMES, BrixiusCurve, BurckhardtCurve, JanosiCurve,
                                     TractionAndResistance, get_terrain,
                                     soil_resistance_coefficient, traction_coefficient)
 from terrain.terramechanics.efficiency import tractive_efficiency
@@ -126,3 +126,47 @@ def test_curve_refusals_name_class_and_field(make, field):
     with pytest.raises(ConfigError, match=rf"(JanosiCurve|BrixiusCurve|TractionAndResistance)"
                                           rf"\.{field}"):
         make()
+
+
+# any valid curve of the three families, the hump-type Janosi curve included (the catalogue's
+# entries are a handful of points of this space)
+CURVES = st.one_of(
+    st.builds(lambda c1, c2, f: BurckhardtCurve(c1, c2, f * c1 * -np.expm1(-c2)),
+              st.floats(0.05, 1.5), st.floats(1.0, 300.0), st.floats(0.0, 0.9)),
+    st.builds(lambda m, k, r: JanosiCurve(m, k, residual_ratio=r), st.floats(0.05, 1.2),
+              st.floats(0.005, 1.0), st.one_of(st.none(), st.floats(0.2, 0.95))),
+    st.builds(BrixiusCurve, st.floats(5.0, 100.0)))
+
+
+@settings(max_examples=60, deadline=None)
+@given(curve=CURVES, soil=st.floats(0.0, 0.2), hyst=st.floats(0.0, 0.3),
+       demand=st.floats(-0.1, 0.5), frac=st.floats(0.01, 0.999))
+def test_efficiency_steady_slip_and_inverses_hold_for_any_valid_curve(curve, soil, hyst,
+                                                                      demand, frac):
+    from terrain.terramechanics import TerrainParams, steady_slip, traction_peak
+    from terrain.terramechanics.inverse import slip_at_peak_fraction, stable_side_end
+    terrain = TerrainParams("X", curve, soil, hyst, 0.5, 0.1, 0.1, 0.5, "test")
+    s = np.linspace(0.0, 1.0, 501)
+    # Wong ch. 4.2: drawbar over drive power, never above 1, never negative
+    eta = tractive_efficiency(terrain, s)
+    assert np.all((eta >= 0.0) & (eta < 1.0))
+    mu = traction_coefficient(curve, s)
+    assert traction_peak(curve).mu_max >= mu.max() - 1e-12
+    # the exact and the tabulated inverses of the stable side land on the asked traction
+    _, mu_end = stable_side_end(curve)
+    target = frac * mu_end
+    np.testing.assert_allclose(float(traction_coefficient(curve, slip_at_peak_fraction(
+        curve, frac))), target, rtol=0, atol=1e-8)
+    back = float(slip_from_traction(curve, target).slip)
+    assert abs(float(traction_coefficient(curve, back)) - target) <= 2e-3 * mu_end + 1e-12
+    # the steady slip balances traction against soil resistance plus the demand
+    ss = steady_slip(terrain, demand)
+    net = mu - soil_resistance_coefficient(terrain, s) - demand
+    if ss == 0.0:       # (a demand of 1e-45 has its root at 1e-45: 0.0)
+        assert net[0] >= -1e-12
+    elif ss == 1.0:
+        assert net.max() < 1e-9
+    else:
+        assert abs(float(traction_coefficient(curve, ss)
+                         - soil_resistance_coefficient(terrain, ss)) - demand) < 1e-6
+        assert np.all(net[s < ss - 1e-6] < 1e-9)     # the first slip meeting the demand
