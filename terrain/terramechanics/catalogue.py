@@ -71,7 +71,14 @@ class TerrainParams:
         soil resistance, hysteresis, lateral friction and vibration levels finite and >= 0,
         the vibration reference speed finite and > 0, and a curve with a ``coefficients``
         method (a :class:`~terrain.terramechanics.traction.TractionCurve`; anything else
-        failed at its first use with an AttributeError naming no field)."""
+        failed at its first use with an AttributeError naming no field), and a name that is
+        a non-empty upper-case label without surrounding blanks (the simulator finds a
+        terrain's physics-v2 soil and tyre friction factor by that name: ``snow`` ran without
+        its soil, on the Coulomb lateral law)."""
+        name = self.name
+        if not (isinstance(name, str) and name and name == name.upper().strip()):
+            raise ConfigError(f"TerrainParams.name must be an upper-case terrain label "
+                              f"(ASPHALT, SNOW...), got {name!r:.60}")
         if not callable(getattr(self.curve, "coefficients", None)):
             raise ConfigError(f"TerrainParams.curve must be a traction curve (BurckhardtCurve, "
                               f"JanosiCurve, BrixiusCurve...), got {self.curve!r}")

@@ -173,3 +173,22 @@ def test_efficiency_steady_slip_and_inverses_hold_for_any_valid_curve(curve, soi
         assert abs(float(traction_coefficient(curve, ss)
                          - soil_resistance_coefficient(terrain, ss)) - demand) < 1e-6
         assert np.all(net[s < ss - 1e-6] < 1e-9)     # the first slip meeting the demand
+
+
+@pytest.mark.parametrize("name", ("snow", "Snow", " SNOW", "", None, 3, True))
+def test_a_terrain_name_that_is_not_an_upper_case_label_is_refused(name):
+    # the simulator finds a terrain's soil (physics v2), tyre friction factor and desired
+    # slip by its upper-case name: replace(SNOW, name='snow') ran v2 without the snow soil,
+    # on the Coulomb lateral law, without a word
+    from dataclasses import replace
+
+    from terrain.errors import ConfigError
+    with pytest.raises(ConfigError, match=r"TerrainParams\.name"):
+        replace(get_terrain("SNOW"), name=name)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.text(alphabet="ABCDEFGHIJKLMNOPQRSTUVWXYZ0123456789_", min_size=1, max_size=12))
+def test_an_upper_case_terrain_label_is_kept(name):
+    from dataclasses import replace
+    assert replace(get_terrain("ASPHALT"), name=name).name == name
