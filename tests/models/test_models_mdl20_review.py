@@ -169,16 +169,20 @@ def test_minirocket_refuses_no_window_or_no_channel(shape):
         fitted.transform(np.zeros(shape))
 
 
+def _two_class_runs():
+    """40 windows of 8 runs (5 each), classes A and B: X, y, runs, window starts."""
+    rng = np.random.default_rng(0)
+    y = np.repeat(["A", "B"], 20)
+    g = np.repeat([f"r{i}" for i in range(8)], 5)
+    return rng.normal(size=(40, 3)), y, g, np.tile(np.arange(5.0), 8)
+
+
 def test_cross_validate_names_a_training_class_no_evaluation_window_holds():
     from sklearn.linear_model import LogisticRegression
 
     from terrain.models.cv import TrainingWindows, cross_validate
 
-    rng = np.random.default_rng(0)
-    y = np.repeat(["A", "B"], 20)
-    g = np.repeat([f"r{i}" for i in range(8)], 5)
-    X = rng.normal(size=(40, 3))
-    t0 = np.tile(np.arange(5.0), 8)
+    X, y, g, t0 = _two_class_runs()
     dense_y = y.copy()
     dense_y[::7] = "C"      # a stretch of another terrain only the denser cut reaches
     training = TrainingWindows(X.copy(), dense_y, g.astype(object))
@@ -193,11 +197,7 @@ def test_cross_validate_ignores_the_class_of_training_windows_without_a_unit():
 
     from terrain.models.cv import TrainingWindows, cross_validate
 
-    rng = np.random.default_rng(0)
-    y = np.repeat(["A", "B"], 20)
-    g = np.repeat([f"r{i}" for i in range(8)], 5)
-    X = rng.normal(size=(40, 3))
-    t0 = np.tile(np.arange(5.0), 8)
+    X, y, g, t0 = _two_class_runs()
     units = np.append(g, "r8").astype(object)
     units[-1] = None        # a run without evaluation windows: never trained on
     training = TrainingWindows(np.vstack([X, X[:1]]), np.append(y, "C"), units)
