@@ -222,6 +222,40 @@ def holds_booleans(x) -> bool:
     return isinstance(x, bool)
 
 
+def refuse_unreal(owner: str, optional: tuple = (), **inputs) -> None:
+    """Raise a :class:`DataFormatError` naming the first of ``inputs`` that does not convert
+    to real numbers (text, a ragged list, a complex scalar, ``None`` where a number is
+    needed): the slow path of the control steps, run only once NumPy's conversion failed,
+    whose message named no input.
+
+    Parameters
+    ----------
+    owner : str
+        The refusing function, for the message.
+    optional : tuple of str
+        Inputs that may be ``None`` (not given).
+    **inputs
+        Input name -> scalar or array-like, in the order they are judged.
+
+    Raises
+    ------
+    DataFormatError
+        ``<owner>: <name> must hold real numbers (<NumPy's reason>)``, with ``column`` the
+        input's name.
+    """
+    for name, x in inputs.items():
+        if x is None and name in optional:
+            continue
+        try:
+            if np.ndim(x) == 0:
+                float(x)
+            else:
+                np.asarray(x, dtype=float)
+        except (TypeError, ValueError) as exc:
+            raise DataFormatError(f"{owner}: {name} must hold real numbers ({exc})",
+                                  column=name) from None
+
+
 def refuse_booleans(error: type[TerrainError], owner: str | None = None, **values) -> None:
     """Raise ``error`` naming the first of ``values`` that holds booleans where numbers are
     meant (:func:`holds_booleans`): the shared refusal of the slip, odometry, lag,

@@ -206,3 +206,17 @@ def test_a_numpy_duration_is_not_a_number(check):
             "config_seed": lambda f, v: f("seed", v)}[check]
     with pytest.raises(ConfigError, match="dt_s|fraction|n_epochs|seed"):
         call(getattr(terrain.errors, check), np.timedelta64(5, "s"))
+
+
+def test_refuse_unreal_names_the_first_input_that_is_not_numbers():
+    """The control steps' shared slow-path refusal (one rule for traction and feed-forward,
+    which had a copy each)."""
+    from terrain.errors import DataFormatError, refuse_unreal
+
+    refuse_unreal("f", ("s",), a=1.0, b=[1, 2], s=None)      # all real: no error
+    cases = [(dict(a=1.0, b="x"), "b"), (dict(a=[1, "x"], b=1.0), "a"),
+             (dict(a=1j), "a"), (dict(a=None), "a"), (dict(a=[1, [2, 3]]), "a")]
+    for inputs, name in cases:
+        with pytest.raises(DataFormatError, match=f"^f: {name} must hold real numbers") as e:
+            refuse_unreal("f", (), **inputs)
+        assert e.value.column == name

@@ -31,7 +31,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_numbers, holds_booleans)
+                            config_numbers, holds_booleans, refuse_unreal)
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
 
@@ -189,8 +189,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
         v_est = np.asarray(v_est_m_s, dtype=float)
         v_ref = np.asarray(v_ref_m_s, dtype=float)
     except (TypeError, ValueError):   # text: numpy's message named no input
-        _name_unreal(omega_low_level_rad_s=omega_low_level_rad_s, v_est_m_s=v_est_m_s,
-                     v_ref_m_s=v_ref_m_s)
+        refuse_unreal("feedforward_step", ("v_est_m_s", "v_ref_m_s"),
+                      omega_low_level_rad_s=omega_low_level_rad_s, v_est_m_s=v_est_m_s,
+                      v_ref_m_s=v_ref_m_s)
         raise
     if engaged is not None and np.asarray(engaged).dtype != bool:   # read by truthiness
         raise DataFormatError(f"feedforward_step: engaged must be the booleans of the "
@@ -213,18 +214,6 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
     return FeedForward(corr, v_ref, limit, over)
-
-
-def _name_unreal(**arrays) -> None:
-    """Raise a :class:`~terrain.errors.DataFormatError` naming the first of ``arrays`` that
-    does not convert to real numbers (text, a ragged list); the slow path, run only once a
-    conversion failed."""
-    for name, x in arrays.items():
-        try:
-            np.asarray(x, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise DataFormatError(f"feedforward_step: {name} must hold real numbers ({exc})",
-                                  column=name) from None
 
 
 def _refuse_shapes(n: tuple, **arrays) -> None:

@@ -65,7 +65,8 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError, ShapeError,
-                            config_flags, config_integer, config_numbers, holds_booleans)
+                            config_flags, config_integer, config_numbers, holds_booleans,
+                            refuse_unreal)
 from terrain.slip import sae_slip
 from terrain.vehicles import contact_geometry, get_vehicle
 
@@ -530,10 +531,11 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         if slip is not None:
             slip = np.asarray(slip, dtype=float)
     except (TypeError, ValueError):
-        _name_unreal(omega_low_level_rad_s=omega_low_level_rad_s,
-                     omega_meas_rad_s=omega_meas_rad_s, v_long_m_s=v_long_m_s,
-                     a_local_m_s2=a_local_m_s2, chassis_speed_m_s=chassis_speed_m_s,
-                     dt_s=dt_s, input_age_s=input_age_s, slip=slip)
+        refuse_unreal("traction control step", ("slip",),
+                      omega_low_level_rad_s=omega_low_level_rad_s,
+                      omega_meas_rad_s=omega_meas_rad_s, v_long_m_s=v_long_m_s,
+                      a_local_m_s2=a_local_m_s2, chassis_speed_m_s=chassis_speed_m_s,
+                      dt_s=dt_s, input_age_s=input_age_s, slip=slip)
         raise
     if chassis_speed_m_s < 0.0:   # a signed speed: never enabled while reversing
         raise ImplausibleValueError(
@@ -700,23 +702,6 @@ def _refuse_booleans(**inputs) -> None:
         if holds_booleans(x):
             raise DataFormatError(f"traction control step: {name} must hold real numbers, "
                                   f"got a boolean {x!r:.60}", column=name)
-
-
-def _name_unreal(**inputs) -> None:
-    """Raise a :class:`~terrain.errors.DataFormatError` naming the first input that is not
-    a real number (text, ``None`` for a scalar, a complex scalar); the slow path, run only
-    once a conversion failed, so a control step costs the same as before (46 us)."""
-    for name, x in inputs.items():
-        if x is None and name == "slip":
-            continue
-        try:
-            if np.ndim(x) == 0:
-                float(x)
-            else:
-                np.asarray(x, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise DataFormatError(f"traction control step: {name} must hold real numbers "
-                                  f"({exc})", column=name) from None
 
 
 class TractionController:
