@@ -294,9 +294,14 @@ def read_manifest(data_dir: str | Path | None = None) -> dict:
     Raises
     ------
     DataFormatError
-        If the manifest is missing, or unreadable (not UTF-8 JSON); names the file.
+        If the manifest is missing, or unreadable (not UTF-8 JSON), or ``data_dir`` is a
+        file (``--data-dir data/manifest.json``); names the file.
     """
-    path = Path(data_dir or default_data_dir()) / "manifest.json"
+    folder = Path(data_dir or default_data_dir())
+    if folder.is_file():    # its "manifest.json" below it was reported missing
+        raise DataFormatError("data folder is a file: give the folder that holds "
+                              "manifest.json", folder)
+    path = folder / "manifest.json"
     if not path.exists():
         raise DataFormatError("manifest not found; regenerate data/ with `terrain convert`",
                               path)

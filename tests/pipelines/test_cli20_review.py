@@ -1,0 +1,31 @@
+"""Review of the command line (cli20): option values that name a file where a folder is
+read, and other inputs answered in one line naming what is wrong."""
+
+from __future__ import annotations
+
+import pytest
+from cli_helpers import exit_code
+
+from terrain.errors import DataFormatError
+from terrain.io.shipped import default_data_dir, read_manifest
+
+
+@pytest.mark.parametrize("name", ["manifest.json", "notes.txt"])
+def test_slip_table_data_dir_naming_a_file_says_it_is_a_file(name, tmp_path, capsys):
+    # --data-dir data/manifest.json (the manifest itself) was answered "manifest not found
+    # (file data/manifest.json/manifest.json)", as if the manifest were missing
+    given = tmp_path / name
+    given.write_bytes((default_data_dir() / "manifest.json").read_bytes())
+    assert exit_code(["slip-table", "--data-dir", str(given)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "Traceback" not in err[0]
+    assert "is a file" in err[0] and "not found" not in err[0]
+    assert f"{given}/manifest.json" not in err[0] and str(given) in err[0]
+
+
+def test_read_manifest_of_a_file_raises_the_typed_error_naming_it(tmp_path):
+    given = tmp_path / "manifest.json"
+    given.write_text("{}")
+    with pytest.raises(DataFormatError, match="is a file") as exc:
+        read_manifest(given)
+    assert str(exc.value.path) == str(given)
