@@ -295,7 +295,10 @@ class WindowConfig:
                               f"{self.window_s * self.rate_hz:.3g} samples; at most "
                               f"{MAX_WINDOW_SAMPLES:,} (a shorter window or a lower rate)")
         if round(self.window_s * self.rate_hz) < 4:
-            raise ConfigError("a window must hold at least 4 samples")
+            raise ConfigError(f"a window must hold at least 4 samples: a window of "
+                              f"{self.window_s:g} s at {self.rate_hz:g} Hz holds "
+                              f"{round(self.window_s * self.rate_hz)} (a longer window or a "
+                              "higher rate)")
         config_positive("WindowConfig", allow_zero=True, min_speed_m_s=self.min_speed_m_s,
                         max_speed_std_m_s=self.max_speed_std_m_s)
         # read by truthiness, the text "no" of a config file turned the filter on

@@ -29,3 +29,13 @@ def test_read_manifest_of_a_file_raises_the_typed_error_naming_it(tmp_path):
     with pytest.raises(DataFormatError, match="is a file") as exc:
         read_manifest(given)
     assert str(exc.value.path) == str(given)
+
+
+@pytest.mark.parametrize("window", ["0.03", "1e-9"])
+def test_cv_window_too_short_says_the_window_and_rate_given(window, capsys):
+    # "a window must hold at least 4 samples" named neither the --window-s given nor the
+    # rate, where a window too long is answered with both
+    assert exit_code(["cv", "--dataset", "borealtc", "--window-s", window]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "at least 4 samples" in err[0]
+    assert f"a window of {float(window):g} s at 100 Hz" in err[0]
