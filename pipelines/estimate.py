@@ -30,7 +30,7 @@ import argparse
 from pathlib import Path
 
 from features.slip_outputs import missing_slip_inputs, slip_model_outputs
-from pipelines.arguments import check_derived_output, input_folder, output_file
+from pipelines.arguments import check_derived_output, input_folder, input_path, output_file
 from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError, DataFormatError, EstimationError
 from terrain.estimation.ekf import Gate
@@ -70,7 +70,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "the IMU rate)")
     parser.add_argument("--slip-model", choices=SLIP_MODELS, default=None,
                         help="skid-steer slip source (default fused)")
-    parser.add_argument("--slip-model-dir", type=input_folder, default=None,
+    # as text: a model URI read as a path lost a slash of its '//' (s3:/bucket/...)
+    parser.add_argument("--slip-model-dir", type=input_path, default=None,
                         help="learned slip model (MLflow model dir or model URI; an error "
                              "when it cannot be loaded; default: registered slip-husky, "
                              "physics with a note when there is none)")

@@ -17,7 +17,7 @@ REGISTERED_SLIP_MODEL = "slip-husky"
 _URI = re.compile(r"^[A-Za-z][A-Za-z0-9+.-]+:/")   # 2+ letters: not a drive (C:/)
 
 
-def load_slip_model_dir(model_dir: Path) -> Any:
+def load_slip_model_dir(model_dir: str | Path) -> Any:
     """Load the learned slip model the user named with ``--slip-model-dir``.
 
     A folder is checked first (it exists, is a folder, holds the ``MLmodel`` file that
@@ -26,8 +26,9 @@ def load_slip_model_dir(model_dir: Path) -> Any:
 
     Parameters
     ----------
-    model_dir : Path
-        MLflow model folder or model URI.
+    model_dir : str or Path
+        MLflow model folder or model URI (a URI as text: a ``Path`` drops a slash of its
+        ``//``, ``s3:/bucket/...``).
 
     Returns
     -------
@@ -43,6 +44,7 @@ def load_slip_model_dir(model_dir: Path) -> Any:
     """
     where = f"--slip-model-dir {model_dir}"
     if not _URI.match(str(model_dir)):
+        model_dir = Path(model_dir)
         if not model_dir.exists():
             raise ConfigError(f"{where}: no such folder")
         if not model_dir.is_dir():
@@ -67,12 +69,12 @@ def load_slip_model_dir(model_dir: Path) -> Any:
                           f"{': ' + text if text else ''})") from None
 
 
-def resolve_slip_model(model_dir: Path | None) -> tuple[Any | None, str]:
+def resolve_slip_model(model_dir: str | Path | None) -> tuple[Any | None, str]:
     """Load the learned slip model.
 
     Parameters
     ----------
-    model_dir : Path or None
+    model_dir : str, Path or None
         MLflow model directory (``.../artifacts`` of a ``terrain slip-fit`` run) or a model
         URI the user named: it must load (:func:`load_slip_model_dir`). None: the latest
         version of :data:`REGISTERED_SLIP_MODEL` in the tracking store in force

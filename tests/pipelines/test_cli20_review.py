@@ -39,3 +39,28 @@ def test_cv_window_too_short_says_the_window_and_rate_given(window, capsys):
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "at least 4 samples" in err[0]
     assert f"a window of {float(window):g} s at 100 Hz" in err[0]
+
+
+@pytest.mark.parametrize("uri", ["s3://bucket/slip/artifacts", "https://host/models/slip",
+                                 "models:/slip-husky/2"])
+def test_estimate_hands_a_slip_model_uri_to_mlflow_as_given(uri, tmp_path, monkeypatch,
+                                                            capsys):
+    # --slip-model-dir takes "MLflow model dir or model URI": read as a path, the URI lost
+    # a slash of its '//' (s3:/bucket/..., https:/host/...), which no store resolves
+    import mlflow.sklearn
+
+    from terrain.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--scenario",
+                 "straight_accel", "--duration-s", "1", "--out", "runs"]) == 0
+    asked = []
+
+    def load_model(model_uri, *args, **kwargs):
+        asked.append(model_uri)
+        raise OSError("no store here")
+
+    monkeypatch.setattr(mlflow.sklearn, "load_model", load_model)
+    assert exit_code(["estimate", "runs", "--out", "e.csv", "--slip-model-dir", uri]) == 2
+    assert asked == [uri]
+    assert f"--slip-model-dir {uri}: the model cannot be loaded" in capsys.readouterr().err
