@@ -3,8 +3,13 @@ read, and other inputs answered in one line naming what is wrong."""
 
 from __future__ import annotations
 
+import argparse
+import math
+
 import pytest
 from cli_helpers import exit_code
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain.errors import DataFormatError
 from terrain.io.shipped import default_data_dir, read_manifest
@@ -64,3 +69,40 @@ def test_estimate_hands_a_slip_model_uri_to_mlflow_as_given(uri, tmp_path, monke
     assert exit_code(["estimate", "runs", "--out", "e.csv", "--slip-model-dir", uri]) == 2
     assert asked == [uri]
     assert f"--slip-model-dir {uri}: the model cannot be loaded" in capsys.readouterr().err
+
+
+def _number_types():
+    import pipelines.arguments as arguments
+    from pipelines.audit import _min_gain
+    from pipelines.compare import _n_jobs
+
+    return [arguments.positive_number, arguments.non_negative_number,
+            arguments.sim_duration_s, arguments.probability, arguments.positive_integer,
+            arguments.integer_up_to(10), arguments.integer_in(0, 100), arguments.seed_value,
+            _min_gain, _n_jobs, arguments.terrain_name]
+
+
+_OPTION_TEXTS = st.one_of(
+    st.text(max_size=12), st.floats().map(repr), st.integers().map(str),
+    st.sampled_from(["nan", "-nan", "inf", "-inf", "1e400", "-1e400", "-0", "0x1", "1_0",
+                     " 3 ", "+5", "True", "", " "]))
+
+
+@settings(max_examples=300, deadline=None)
+@given(_OPTION_TEXTS)
+def test_every_option_type_gives_a_finite_value_in_range_or_a_usage_error(text):
+    # whatever the shell hands over: the value the type checks, or argparse's one-line
+    # usage error; never another exception (a traceback) nor a non-finite number
+    for parse in _number_types():
+        try:
+            value = parse(text)
+        except argparse.ArgumentTypeError:
+            continue
+        if isinstance(value, float):
+            assert math.isfinite(value), (parse.__name__, text, value)
+        if parse.__name__ == "probability":
+            assert 0 <= value <= 1
+        elif parse.__name__ in ("positive_number", "sim_duration_s", "positive_integer"):
+            assert value > 0
+        elif parse.__name__ == "non_negative_number":
+            assert value >= 0
