@@ -156,7 +156,8 @@ def main(args: argparse.Namespace) -> int:
     ------
     ConfigError
         Neither or both of ``RUNS_DIR`` and ``--dataset`` given, the figures' folder beside
-        ``--md`` cannot be created (:func:`pipelines.arguments.output_dir`), or a setting out
+        ``--md`` cannot be created (:func:`pipelines.arguments.output_dir`) or is the
+        ``--json`` file, or a setting out
         of range (:class:`terrain.audit.selection.SelectionSettings`); all before any run is
         read.
     DataFormatError
@@ -169,6 +170,10 @@ def main(args: argparse.Namespace) -> int:
             output_dir(str(figures_folder(args.md)))
         except argparse.ArgumentTypeError as exc:
             raise ConfigError(f"--md: {exc}") from None
+        folder = figures_folder(args.md)
+        if folder.resolve() == args.json.resolve():   # the JSON file would block the folder
+            raise ConfigError(f"--json {args.json} is the folder of the --md report's figures "
+                              f"({folder}): give the JSON file another name")
     settings = AuditSettings(  # before reading: a bad setting fails fast
         replay=ReplaySettings(physics=args.physics,
                               input_cutoff_hz=args.replay_input_lowpass_hz),

@@ -106,3 +106,25 @@ def test_every_option_type_gives_a_finite_value_in_range_or_a_usage_error(text):
             assert value > 0
         elif parse.__name__ == "non_negative_number":
             assert value >= 0
+
+
+@pytest.mark.parametrize("json_name", ["r_figures", "./r_figures"])
+def test_audit_refuses_a_json_file_where_the_markdown_puts_its_figures(
+        json_name, tmp_path, monkeypatch, capsys):
+    # --json r_figures --md r.md: the JSON was written as the file r_figures, and the
+    # Markdown's figures folder r_figures/ then failed ('File exists: r_figures') after the
+    # whole audit had run (minutes), leaving no Markdown
+    import pipelines.audit as audit
+
+    def read_runs_dir(*args, **kwargs):
+        raise AssertionError("runs read before the outputs were checked")
+
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "runs").mkdir()
+    monkeypatch.setattr(audit, "read_runs_dir", read_runs_dir)
+    assert exit_code(["audit", "runs", "--json", json_name, "--md", "r.md",
+                      "--no-mlflow"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--json" in err[0] and "--md" in err[0]
+    assert "r_figures" in err[0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]
