@@ -6,7 +6,7 @@ last k windows of a run) reported for every cell. Cells run through joblib: --ba
 --address tcp://HOST:8786 sends them to a Dask cluster, --backend ray to Ray, unchanged.
 Writes compare_table.md/.csv (mean and spread over seeds), compare_cells.csv and compare.png
 (and compare_grid.png / compare_grid.md, accuracy over signal set x window, when the grid
-spans several).
+spans several; otherwise those of an earlier grid in --out are removed).
 --protocol paper runs the papers' LEAKY 5 s partition protocol instead (1.7 s windows; labelled
 as such in every table and run; never the default).
 """
@@ -265,6 +265,9 @@ def main(args: argparse.Namespace) -> int:
             run.log_figure(grid, "compare_grid.png")
             (args.out / "compare_grid.md").write_text(grid_markdown(table, config.history))
             run.log_artifact(args.out / "compare_grid.md")
+        else:   # an earlier, larger grid's figure would stand beside this table as its own
+            for name in ("compare_grid.png", "compare_grid.md"):
+                (args.out / name).unlink(missing_ok=True)
         pd.concat([r["predictions"] for r in results]).to_csv(args.out / "predictions.csv",
                                                               index=False)
     print(md)

@@ -128,3 +128,35 @@ def test_audit_refuses_a_json_file_where_the_markdown_puts_its_figures(
     assert len(err) == 1 and "--json" in err[0] and "--md" in err[0]
     assert "r_figures" in err[0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["runs"]
+
+
+def test_compare_leaves_no_grid_figure_of_an_earlier_grid_in_its_folder(tmp_path, monkeypatch):
+    # a grid over one signal set and one window writes no compare_grid.png / .md: those of
+    # an earlier, larger grid in the same --out stayed there beside the new table, as if
+    # this run's
+    import matplotlib.pyplot as plt
+    import pandas as pd
+    from cli_helpers import RecordingRun
+
+    import pipelines.compare as compare
+    from terrain.cli import main
+
+    out = tmp_path / "cmp"
+    out.mkdir()
+    for name in ("compare_grid.png", "compare_grid.md"):
+        (out / name).write_text("an earlier grid")
+    cell = {"rows": [{"model": "svm", "accuracy": 0.5}],
+            "predictions": pd.DataFrame({"run": ["r"], "predicted": ["ICE"]})}
+    monkeypatch.setattr(compare, "tracked_run", RecordingRun())
+    monkeypatch.setattr(compare, "iter_grid", lambda config, n_jobs: iter([cell]))
+    monkeypatch.setattr(compare, "log_cell", lambda result: None)
+    monkeypatch.setattr(compare, "summary_table", lambda rows: rows)
+    monkeypatch.setattr(compare, "markdown_table", lambda table: "| table |")
+    monkeypatch.setattr(compare, "plot_comparison", lambda table: plt.figure())
+    monkeypatch.setattr(compare, "spans_grid", lambda table: False)
+    assert main(["compare", "--models", "svm", "--datasets", "vulpi", "--signals", "all",
+                 "--windows-s", "2", "--seeds", "0", "--n-jobs", "1", "--no-progress",
+                 "--out", str(out)]) == 0
+    plt.close("all")
+    assert (out / "compare_table.md").read_text() == "| table |"
+    assert not (out / "compare_grid.png").exists() and not (out / "compare_grid.md").exists()
