@@ -108,7 +108,7 @@ def test_every_option_type_gives_a_finite_value_in_range_or_a_usage_error(text):
             assert value >= 0
 
 
-@pytest.mark.parametrize("json_name", ["r_figures", "./r_figures"])
+@pytest.mark.parametrize("json_name", ["r_figures", "./r_figures", "ABSOLUTE"])
 def test_audit_refuses_a_json_file_where_the_markdown_puts_its_figures(
         json_name, tmp_path, monkeypatch, capsys):
     # --json r_figures --md r.md: the JSON was written as the file r_figures, and the
@@ -122,6 +122,8 @@ def test_audit_refuses_a_json_file_where_the_markdown_puts_its_figures(
     monkeypatch.chdir(tmp_path)
     (tmp_path / "runs").mkdir()
     monkeypatch.setattr(audit, "read_runs_dir", read_runs_dir)
+    if json_name == "ABSOLUTE":     # the same file, named another way
+        json_name = str(tmp_path / "r_figures")
     assert exit_code(["audit", "runs", "--json", json_name, "--md", "r.md",
                       "--no-mlflow"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
