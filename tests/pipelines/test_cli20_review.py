@@ -143,6 +143,7 @@ def test_compare_leaves_no_grid_figure_of_an_earlier_grid_in_its_folder(tmp_path
     import pipelines.compare as compare
     from terrain.cli import main
 
+    monkeypatch.chdir(tmp_path)     # the tracking store, if any, is created there
     out = tmp_path / "cmp"
     out.mkdir()
     for name in ("compare_grid.png", "compare_grid.md"):
