@@ -127,7 +127,7 @@ def test_train_logs_the_runs_hop_vehicle_and_classes_it_trained_on(
 
     import pipelines.train as train
 
-    runs = [SimpleNamespace(run_id=f"vulpi/{t}/{i}", vehicle=v)
+    runs = [SimpleNamespace(run_id=f"vulpi/{t}/{i}", vehicle=v, streams={})
             for t, i, v in (("ICE", 0, "husky"), ("MY_YARD", 1, "agrimaro"),
                             ("ICE", 2, "husky"))]
     labels = np.array(["ice", "ice", "MY_YARD", "MY_YARD"])
@@ -156,6 +156,7 @@ def test_train_logs_the_runs_hop_vehicle_and_classes_it_trained_on(
     assert logged["name"] == "svm-vulpi-all"
     assert logged["params"]["train_hop_s"] == 0.5 and logged["params"]["window_s"] == 2.0
     assert logged["meta"]["vehicle"] is None and logged["meta"]["trained_on_runs"] == 2
+    assert logged["meta"]["channel_steps_s"] == {}    # (runs without streams here)
     assert run.metrics["n_runs"] == 2 and run.metrics["n_windows"] == 4
     assert "trained on 4 windows of 2 runs, classes ['MY_YARD', 'ice']" in out
     assert "note: class(es) ['MY_YARD'] not in the terrain catalogue" in out
