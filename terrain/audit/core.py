@@ -526,14 +526,15 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
     DataFormatError
         No run could be audited.
     ConfigError
-        Two runs (or two given frames) share a run id: every per-run table, the skipped
-        list and the sample table are keyed by it.
+        Two runs (frames given or not) or two given frames share a run id: every per-run
+        table, the skipped list, the sweep and the sample table are keyed by it.
     """
     timings = {}
     t0 = time.perf_counter()
     skipped: dict[str, str] = {}
+    # given frames too: the runs serve the sweep, each replayed under its id
+    _require_unique_ids([r.run_id for r in runs])
     if frames is None:
-        _require_unique_ids([r.run_id for r in runs])
         frames, skipped = prepare_frames(runs, settings)
     frames = list(frames)
     _require_unique_ids([f.run_id for f in frames])
