@@ -52,7 +52,7 @@ import pandas as pd
 from sklearn.ensemble import HistGradientBoostingRegressor
 
 from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
-from terrain.errors import ConfigError, config_integer, config_positive
+from terrain.errors import ConfigError, config_integer, config_positive, refuse_missing
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import inverse_icr_factor
 
@@ -763,8 +763,18 @@ def ceiling_table(samples: pd.DataFrame) -> pd.DataFrame:
         One row per scope with samples (``moving`` = straight, curve and spin): ``scope, n,
         n_runs, rmse_reference`` and, for each model column present with finite values,
         ``rmse_<model>`` and ``gain_<model> = 1 - rmse_<model> / rmse_reference``.
+
+    Raises
+    ------
+    NonFiniteInputError
+        A model column holds values on some samples only (tables concatenated with and
+        without candidate frames or training runs): its RMSE would be NaN, or taken over
+        other samples than the reference's.
     """
     models = [c for c in MODELS if c in samples.columns and samples[c].notna().any()]
+    for c in models:
+        refuse_missing("ceiling_table", c, samples[c], "value(s)",
+                       "give every concatenated table this model, or none")
     rows = []
     for scope in SCOPES:
         sub = samples if scope == "moving" else samples[samples.manoeuvre == scope]

@@ -24,3 +24,25 @@ def test_runs_sharing_a_run_id_beside_prepared_frames_are_refused():
     runs = [SimpleNamespace(run_id="s/ASPHALT/0"), SimpleNamespace(run_id="s/ASPHALT/0")]
     with pytest.raises(ConfigError, match=r"run ids must be unique.*s/ASPHALT/0 \(2 runs\)"):
         run_audit(runs, SETTINGS, frames=frames)
+
+
+def test_ceiling_table_refuses_a_model_column_holding_values_on_some_samples_only():
+    # before: sample tables of two terrains concatenated, one with candidate frames and one
+    # without, gave rmse_candidate and gain_candidate NaN in every scope, silently (the mean
+    # of the squared errors over NaN rows); a column wholly absent still gets no figures
+    import pandas as pd
+
+    from terrain.audit.ceiling import ceiling_table, yaw_rate_ceiling_samples
+    from terrain.errors import NonFiniteInputError
+    a = [synthetic_frame(f"a/{i}", "ASPHALT", seed=i, chi=1.5) for i in range(2)]
+    g = [synthetic_frame(f"g/{i}", "GRASS", seed=i + 5, chi=1.8) for i in range(2)]
+    with_candidate = yaw_rate_ceiling_samples(a, candidates=a)
+    without = yaw_rate_ceiling_samples(g)
+    with pytest.raises(NonFiniteInputError, match=r"ceiling_table: candidate holds 2320 "
+                                                  r"missing value\(s\).*first at index 2320"):
+        ceiling_table(pd.concat([with_candidate, without], ignore_index=True))
+    tab = ceiling_table(pd.concat([without, yaw_rate_ceiling_samples(a)], ignore_index=True))
+    assert "rmse_candidate" not in tab and tab.rmse_shared.notna().all()
+    both = ceiling_table(pd.concat([with_candidate, yaw_rate_ceiling_samples(
+        g, candidates=g)], ignore_index=True))
+    assert both.rmse_candidate.notna().all()
