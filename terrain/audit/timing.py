@@ -275,10 +275,13 @@ def estimate_lag_track(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: 
     Raises
     ------
     DataFormatError
-        ``t_s`` or ``t_imu_s`` empty, or ``x`` (``wz``) not as long as ``t_s``
-        (``t_imu_s``).
+        ``t_s`` or ``t_imu_s`` empty, or ``x`` or ``alternative`` (``wz``) not as long as
+        ``t_s`` (``t_imu_s``).
     """
     _check_series("estimate_lag_track", t_s, x, t_imu_s, wz)
+    if alternative is not None and len(alternative) != len(t_s):
+        raise DataFormatError(f"estimate_lag_track: alternative has {len(alternative)} "
+                              f"samples, its clock t_s {len(t_s)}")
     t0, t1 = float(t_s[0]), float(t_s[-1])
     if t1 - t0 <= settings.window_s:
         starts = np.array([t0])

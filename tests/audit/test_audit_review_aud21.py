@@ -46,3 +46,20 @@ def test_ceiling_table_refuses_a_model_column_holding_values_on_some_samples_onl
     both = ceiling_table(pd.concat([with_candidate, yaw_rate_ceiling_samples(
         g, candidates=g)], ignore_index=True))
     assert both.rmse_candidate.notna().all()
+
+
+@pytest.mark.parametrize("extra", [-5, 1])
+def test_a_replayed_yaw_rate_not_on_the_wheel_clock_is_refused_by_name(extra):
+    # before: numpy's bare IndexError (boolean index did not match) from the first window
+    import numpy as np
+
+    from terrain.audit.timing import estimate_lag_track
+    from terrain.errors import DataFormatError
+    t = np.arange(0.0, 60.0, 0.1)
+    x = np.sin(t / 3.0)
+    alternative = np.resize(x, len(t) + extra)
+    with pytest.raises(DataFormatError, match=rf"estimate_lag_track: alternative has "
+                                              rf"{len(t) + extra} samples, its clock t_s "
+                                              rf"{len(t)}"):
+        estimate_lag_track(t, x, t, x, alternative=alternative)
+    assert estimate_lag_track(t, x, t, x, alternative=x).identifiable
