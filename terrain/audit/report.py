@@ -208,13 +208,18 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
         ``~<mu>``; ``between <mu_k> and <mu_k+1>`` when the replay's chi goes from below
         the measured chi to inf between them; ``below <lowest>`` / ``above <highest>``
         when the sweep does not bracket the measured chi; ``-`` without a measured chi or
-        without a replayed chi (no run of the terrain turns inside the scored span).
+        without a replayed chi (no run of the terrain turns inside the scored span), or for
+        an empty sweep. Frictions without a replayed chi are left out of the bracketing.
     """
     g = sweep.sort_values("lateral_friction")
+    if g.empty:
+        return "-"
     target = g.measured_chi.iloc[0]
     mu, chi = g.lateral_friction.to_numpy(float), g.replay_chi.to_numpy(float)
     if target is None or not np.isfinite(float(target)) or np.isnan(chi).all():
         return "-"
+    # a NaN chi brackets nothing and failed every comparison, down to the "above" fall-through
+    mu, chi = mu[~np.isnan(chi)], chi[~np.isnan(chi)]
     for k in range(len(mu) - 1):
         if chi[k] <= target <= chi[k + 1] and np.isfinite(chi[k + 1]):
             frac = (target - chi[k]) / max(chi[k + 1] - chi[k], 1e-12)

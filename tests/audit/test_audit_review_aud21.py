@@ -63,3 +63,31 @@ def test_a_replayed_yaw_rate_not_on_the_wheel_clock_is_refused_by_name(extra):
                                               rf"{len(t)}"):
         estimate_lag_track(t, x, t, x, alternative=alternative)
     assert estimate_lag_track(t, x, t, x, alternative=x).identifiable
+
+
+def _sweep(chi, measured):
+    import pandas as pd
+    return pd.DataFrame({"lateral_friction": [0.25, 0.5, 1.0, 2.0][:len(chi)],
+                         "replay_chi": chi, "measured_chi": measured})
+
+
+@pytest.mark.parametrize("chi, measured, text", [
+    # before: a friction without a replayed chi (None in the JSON records) broke the
+    # bracketing, and the fall-through compared with NaN: "above 2" for a measured chi
+    # below every replayed one, "above 2" for one between two replayed ones
+    ([None, 1.2, 1.5, 1.8], 1.1, "below 0.5"),
+    ([1.2, None, 1.5, 1.8], 1.3, "~0.50"),
+    ([1.2, 1.5, None, 1.8], 2.0, "above 2"),
+    ([1.2, 1.5, 1.8, 2.0], 1.1, "below 0.25"),
+    ([1.2, 1.5, 1.8, 2.0], 1.35, "~0.38"),
+    ([None, None, None, None], 1.3, "-"),
+])
+def test_matching_lateral_friction_leaves_out_frictions_without_a_chi(chi, measured, text):
+    from terrain.audit.report import matching_lateral_friction
+    assert matching_lateral_friction(_sweep(chi, measured)) == text
+
+
+def test_matching_lateral_friction_of_an_empty_sweep_is_no_match():
+    # before: pandas' bare IndexError (single positional indexer is out-of-bounds)
+    from terrain.audit.report import matching_lateral_friction
+    assert matching_lateral_friction(_sweep([], [])) == "-"
