@@ -261,7 +261,19 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
         they are listed does not move the interval). A signal and scope without any sample
         (e.g. ``stop`` on runs that never stop) gets no row; ``n_runs`` counts the runs with
         samples in it.
+
+    Raises
+    ------
+    DataFormatError
+        A run listed more than once for one signal and scope (it counted as several runs,
+        its samples several times).
     """
+    keys = ["run_id", "signal", "scope"]
+    counts = per_run.groupby(keys, sort=False).size()
+    if (counts > 1).any():
+        (run, sig, scope), k = next((key, k) for key, k in counts.items() if k > 1)
+        raise DataFormatError(f"gain_table: run {run} is listed {k} times for signal {sig}, "
+                              f"scope {scope}: give one row per run, signal and scope")
     rng = np.random.default_rng(settings.seed)
     # the resamples draw row positions: in run-id order (stable, each run's rows kept in
     # theirs), the same runs listed in another order get the same interval

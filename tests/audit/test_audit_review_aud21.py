@@ -10,7 +10,7 @@ import pytest
 from audit_helpers import synthetic_frame
 from terrain.audit import AuditSettings, run_audit
 from terrain.audit.selection import SelectionSettings
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError
 
 SETTINGS = AuditSettings(selection=SelectionSettings(n_bootstrap=50, n_param_bootstrap=0),
                          pooled=False)
@@ -91,3 +91,19 @@ def test_matching_lateral_friction_of_an_empty_sweep_is_no_match():
     # before: pandas' bare IndexError (single positional indexer is out-of-bounds)
     from terrain.audit.report import matching_lateral_friction
     assert matching_lateral_friction(_sweep([], [])) == "-"
+
+
+def test_gain_table_refuses_a_run_listed_twice_for_one_signal_and_scope():
+    # before: a run's row given twice counted as two runs (n_runs 3 of 2 runs), its samples
+    # twice in the RMSEs, and the interval resampled it as two independent runs
+    import pandas as pd
+
+    from terrain.audit.physics import PhysicsComparisonSettings, gain_table
+    per_run = pd.DataFrame({"run_id": ["r0", "r1", "r0"], "terrain": "ASPHALT",
+                            "signal": "wz", "scope": "moving", "n": [100, 200, 100],
+                            "sse_ref": [4.0, 9.0, 4.0], "sse_new": [1.0, 4.0, 1.0]})
+    settings = PhysicsComparisonSettings(n_bootstrap=50)
+    with pytest.raises(DataFormatError, match=r"gain_table: run r0 is listed 2 times for "
+                                              r"signal wz, scope moving"):
+        gain_table(per_run, settings)
+    assert gain_table(per_run.iloc[:2], settings).n_runs.tolist() == [2, 2]
