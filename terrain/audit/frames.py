@@ -37,7 +37,7 @@ import numpy as np
 from terrain.audit.replay import (LOWPASS_MIN_SAMPLES, Replay, ReplaySettings, lowpass,
                                   require_ordered)
 from terrain.audit.timing import LagSettings, LagTrack, estimate_lag_track
-from terrain.errors import ConfigError, DataWarning, config_positive
+from terrain.errors import ConfigError, DataWarning, config_positive, is_integer
 from terrain.run import TIME, Run
 from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import skid_steer_forward
@@ -450,7 +450,15 @@ def split_frame(frame: AuditFrame, n_parts: int,
     Returns
     -------
     list of AuditFrame
+
+    Raises
+    ------
+    ConfigError
+        ``n_parts`` not an integer (2.5 cut two segments, ``True`` one, NaN failed in
+        NumPy).
     """
+    if not is_integer(n_parts):
+        raise ConfigError(f"split_frame: n_parts must be an integer, got {n_parts!r}")
     if n_parts <= 1:
         return [frame]
     per_sample = ("t_s", "commanded_yaw_rate", "commanded_speed", "manoeuvre", "quiet",

@@ -107,3 +107,16 @@ def test_gain_table_refuses_a_run_listed_twice_for_one_signal_and_scope():
                                               r"signal wz, scope moving"):
         gain_table(per_run, settings)
     assert gain_table(per_run.iloc[:2], settings).n_runs.tolist() == [2, 2]
+
+
+@pytest.mark.parametrize("n_parts", [2.5, float("nan"), True, "3", None])
+def test_split_frame_refuses_a_segment_count_that_is_no_integer(n_parts):
+    # before: 2.5 cut the run into 2 segments silently, True into 1 (the frame itself),
+    # NaN gave NumPy's bare ValueError (cannot convert float NaN to integer)
+    import numpy as np
+
+    from terrain.audit.frames import split_frame
+    frame = synthetic_frame("a/0")
+    with pytest.raises(ConfigError, match=r"split_frame: n_parts must be an integer, got "):
+        split_frame(frame, n_parts)
+    assert len(split_frame(frame, np.int64(3))) == 3 and split_frame(frame, 0) == [frame]
