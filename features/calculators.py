@@ -319,7 +319,8 @@ def band_weights(n_samples: int, rate_hz: float,
     Raises
     ------
     ConfigError
-        ``n_samples`` not an integer >= 1, ``rate_hz`` not a finite number > 0, or a band
+        ``n_samples`` not an integer >= 1, ``rate_hz`` not a finite number > 0, a band that
+        is not a ``(low, high)`` pair of real numbers (booleans and text refused), or a band
         that is not finite, has ``low >= high``, ends at or below 0 Hz or starts above the
         Nyquist frequency (it would hold no content, only a borrowed nearest bin).
     """
@@ -330,6 +331,7 @@ def band_weights(n_samples: int, rate_hz: float,
         raise ConfigError(f"band_weights: rate_hz must be a finite number > 0 Hz, "
                           f"got {rate_hz!r}")
     nyquist = 0.5 * rate_hz
+    bands_hz = tuple(_band_edges(k, band) for k, band in enumerate(bands_hz))
     for lo, hi in bands_hz:
         if not (np.isfinite(lo) and np.isfinite(hi)):
             raise ConfigError(f"band ({lo:g}, {hi:g}) Hz: the edges must be finite")
@@ -352,6 +354,21 @@ def band_weights(n_samples: int, rate_hz: float,
             sel = np.abs(freqs - 0.5 * (lo + hi)) == np.abs(freqs - 0.5 * (lo + hi)).min()
         weights[sel, k] = 1.0 / sel.sum()
     return weights
+
+
+def _band_edges(k: int, band) -> tuple[float, float]:
+    """Band ``k`` of ``bands_hz`` as its two edges, refused unless a (low, high) pair of real
+    numbers (three edges or one number was NumPy's unpacking error, text its ``isfinite``
+    error, and ``True`` passed as 1 Hz)."""
+    try:
+        if isinstance(band, (str, bytes)):
+            raise TypeError
+        lo, hi = band
+    except (TypeError, ValueError):
+        raise ConfigError(f"band_weights.bands_hz[{k}] must be a (low, high) pair of edges "
+                          f"in Hz, got {band!r:.60}") from None
+    config_numbers("band_weights", **{f"bands_hz[{k}][0]": lo, f"bands_hz[{k}][1]": hi})
+    return float(lo), float(hi)
 
 
 def hann_taper(n_samples: int) -> np.ndarray:

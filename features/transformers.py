@@ -191,6 +191,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         # new names and old band weights behind
         bands = (tuple(self.bands_hz) if self.bands_hz is not None
                  else linear_bands(self.rate_hz, self.band_width_hz))
+        # (before the names: a band of text or three edges failed in their formatting)
+        weights = calculators.band_weights(X.shape[2], self.rate_hz, bands)
         names += [f"{c}__{_band_name(lo, hi)}" for c in self.channels if c in IMU_CHANNELS
                   for lo, hi in bands]
         names += [name for name, _ in self._cross_terms()]
@@ -201,8 +203,7 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
                    if twice] or ["bands whose edges agree to 6 digits"]
             raise ConfigError(f"WindowFeatures: feature names occur more than once "
                               f"({'; '.join(why)}): {first_items(repeated, word='name')}")
-        # constant FFT helpers of this window length (derived from the settings, not the data)
-        weights = calculators.band_weights(X.shape[2], self.rate_hz, bands)
+        # weights: constant FFT helpers of this window length (from the settings, not the data)
         self.bands_ = bands
         self.n_features_in_ = X.shape[1]
         self.n_samples_in_ = X.shape[2]

@@ -1,0 +1,68 @@
+"""Review tests (ftr21): feature calculators and the window-feature transformer."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
+
+from features import calculators
+from features.transformers import WindowFeatures
+from features.windows import ALL_CHANNELS
+from terrain.errors import ConfigError
+
+_X = np.random.default_rng(21).normal(size=(3, len(ALL_CHANNELS), 20))
+
+
+@pytest.mark.parametrize("bands", [((0.0, 5.0, 7.0),), (("a", 5.0),), ((True, 5.0),),
+                                   (5.0, 6.0), ((0.0, None),), "0-5"])
+def test_band_weights_refuse_a_band_that_is_not_a_pair_of_numbers(bands):
+    """A band of three edges, of text, of a boolean edge or a bare number: a ConfigError
+    naming the band (was NumPy's unpacking / isfinite error, or True read as 1 Hz)."""
+    with pytest.raises(ConfigError, match=r"bands_hz\[0\]"):
+        calculators.band_weights(10, 50.0, bands)
+
+
+@pytest.mark.parametrize("bands", [((0.0, 5.0, 7.0),), (("a", 5.0),), ((True, 5.0),),
+                                   (5.0, 6.0)])
+def test_window_features_refuse_malformed_bands_at_fit(bands):
+    """The same bands as WindowFeatures settings: refused by fit, nothing set."""
+    fx = WindowFeatures(bands_hz=bands)
+    with pytest.raises(ConfigError, match=r"bands_hz\[0\]"):
+        fx.fit(_X)
+    assert not hasattr(fx, "feature_names_out_")
+
+
+_finite = st.floats(-1e3, 1e3, allow_nan=False, width=64)
+
+
+@settings(max_examples=60, deadline=None)
+@given(arrays(np.float64, st.tuples(st.integers(1, 3), st.integers(2, 40)), elements=_finite))
+def test_statistics_kernel_agrees_with_numpy(x):
+    """The compiled one-pass statistics equal plain NumPy definitions on random windows."""
+    got = calculators.statistics(x, calculators._STATISTIC_NAMES)
+    mu = x.mean(axis=-1)
+    d = x - mu[:, None]
+    m2 = (d ** 2).mean(axis=-1)
+    flat = m2 <= 1e-12
+    safe = np.where(flat, 1.0, m2)
+    skew = np.where(flat, 0.0, (d ** 3).mean(axis=-1) / safe ** 1.5)
+    kurt = np.where(flat, 0.0, (d ** 4).mean(axis=-1) / safe ** 2 - 3.0)
+    want = np.stack([mu, np.sqrt(m2), skew, kurt, np.sqrt((x ** 2).mean(axis=-1)),
+                     x.min(axis=-1), x.max(axis=-1),
+                     np.abs(np.diff(x, axis=-1)).mean(axis=-1)], axis=-1)
+    scale = 1.0 + np.abs(x).max()
+    tol = np.array([1e-9 * scale, 1e-7 * scale, 1e-5, 1e-5, 1e-9 * scale, 0.0, 0.0,
+                    1e-9 * scale])
+    assert np.all(np.abs(got - want) <= tol + 1e-6 * np.abs(want)), (got, want)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(2, 64), st.floats(-1e3, 1e3), st.booleans())
+def test_constant_window_gives_finite_features(n, value, zero):
+    """A constant (or all-zero) window: every feature finite, moments 0 (no 0/0)."""
+    x = np.full((1, len(ALL_CHANNELS), n), 0.0 if zero else value)
+    fx = WindowFeatures().fit(x)
+    out = fx.transform(x)
+    assert out.shape == (1, len(fx.get_feature_names_out()))
+    assert np.all(np.isfinite(out))
