@@ -66,3 +66,34 @@ def test_constant_window_gives_finite_features(n, value, zero):
     out = fx.transform(x)
     assert out.shape == (1, len(fx.get_feature_names_out()))
     assert np.all(np.isfinite(out))
+
+
+def _wheel_inputs(n_windows=2, n=12):
+    rng = np.random.default_rng(3)
+    return [rng.normal(size=(n_windows, n)) for _ in range(4)]
+
+
+@pytest.mark.parametrize("k", range(4))
+def test_physics_features_refuse_boolean_inputs(k):
+    """A mask passed as a wheel speed or current (True read as 1 m/s or 1 A): refused
+    naming the input (was silently converted)."""
+    from features.wheel_physics import physics_features
+    from terrain.errors import DataFormatError
+
+    args = _wheel_inputs()
+    args[k] = args[k] > 0
+    name = ("vel_l", "vel_r", "cur_l", "cur_r")[k]
+    with pytest.raises(DataFormatError, match=f"{name} must hold numbers"):
+        physics_features(*args, rate_hz=10.0)
+
+
+def test_physics_features_refuse_text_inputs():
+    """Text among the currents: a DataFormatError naming the input (was NumPy's
+    'could not convert string to float')."""
+    from features.wheel_physics import physics_features
+    from terrain.errors import DataFormatError
+
+    args = _wheel_inputs()
+    args[2] = np.array([["a"] * 12, ["b"] * 12])
+    with pytest.raises(DataFormatError, match="cur_l must hold real numbers"):
+        physics_features(*args, rate_hz=10.0)
