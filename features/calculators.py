@@ -15,7 +15,8 @@ import numba
 import numpy as np
 from scipy import signal
 
-from terrain.errors import ConfigError, ShapeError, config_integer, config_numbers
+from terrain.errors import (ConfigError, DataFormatError, ShapeError, config_integer,
+                            config_numbers, refuse_booleans, refuse_unreal)
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
@@ -118,14 +119,25 @@ def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     Raises
     ------
     ConfigError
-        An unknown statistic name.
+        An unknown statistic name, or ``names`` given as one text.
+    DataFormatError
+        ``x`` holds booleans (a mask) or does not convert to real numbers (text).
     ShapeError
         ``x`` is a scalar or holds no sample per row.
     """
+    if isinstance(names, str):    # ("mean" was read as the unknown names 'm', 'e', 'a', 'n')
+        raise ConfigError(f"statistics: names must be a sequence of names, got the text "
+                          f"{names!r}; one name is written ({names!r},)")
     unknown = [s for s in names if s not in _STATISTIC_NAMES]
     if unknown:
         raise ConfigError(f"unknown statistics {unknown}; valid: {list(_STATISTIC_NAMES)}")
-    x = np.asarray(x, dtype=float)
+    # (a mask was read as samples of 0 and 1, text failed inside NumPy naming nothing)
+    refuse_booleans(DataFormatError, "statistics", x=x)
+    try:
+        x = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        refuse_unreal("statistics", x=x)
+        raise
     if x.ndim < 1 or x.shape[-1] < 1:
         raise ShapeError(f"statistics need at least one sample per row, got shape {x.shape}")
     rows = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))

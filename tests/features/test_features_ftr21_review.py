@@ -97,3 +97,23 @@ def test_physics_features_refuse_text_inputs():
     args[2] = np.array([["a"] * 12, ["b"] * 12])
     with pytest.raises(DataFormatError, match="cur_l must hold real numbers"):
         physics_features(*args, rate_hz=10.0)
+
+
+@pytest.mark.parametrize("stat", sorted(calculators.STATISTICS))
+def test_statistics_refuse_boolean_windows(stat):
+    """A boolean mask given as windows: refused (was read as 0/1 samples)."""
+    from terrain.errors import DataFormatError
+
+    with pytest.raises(DataFormatError, match="x must hold numbers"):
+        calculators.STATISTICS[stat](np.ones((2, 3, 5)) > 0)
+
+
+def test_statistics_refuse_text_windows_and_text_names():
+    """Text samples: a DataFormatError (was NumPy's conversion error); names given as one
+    text: a ConfigError saying so (was 'unknown statistics ['m', 'e', 'a', 'n']')."""
+    from terrain.errors import DataFormatError
+
+    with pytest.raises(DataFormatError, match="x must hold real numbers"):
+        calculators.statistics(np.array([["a", "b"]]), ("mean",))
+    with pytest.raises(ConfigError, match="sequence of names"):
+        calculators.statistics(np.ones((2, 4)), "mean")
