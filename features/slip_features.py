@@ -30,7 +30,7 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import ConfigError, config_positive, first_items, listed
+from terrain.errors import ConfigError, config_positive, duplicated, first_items, listed
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id
 from terrain.sim.sensors import SensorSettings
@@ -141,7 +141,7 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     ------
     ConfigError
         ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
-        missing, or ``rate_hz`` is not a finite number > 0.
+        missing or named twice, or ``rate_hz`` is not a finite number > 0.
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 2 or x.shape[0] != len(channels):
@@ -185,12 +185,16 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Raises
     ------
     ConfigError
-        A channel of :data:`SLIP_CHANNELS` is missing, ``x`` is not 3-D with one row per
-        channel and at least 2 samples, or ``rate_hz`` is not a finite number > 0.
+        A channel of :data:`SLIP_CHANNELS` is missing, a channel is named twice, ``x`` is
+        not 3-D with one row per channel and at least 2 samples, or ``rate_hz`` is not a
+        finite number > 0.
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
         raise ConfigError(f"slip features need channels {missing}")
+    twice = duplicated(channels)
+    if twice:      # (the channels are read by position: the last of the two was read)
+        raise ConfigError(f"slip features: channels {twice} named twice")
     if x.ndim != 3 or x.shape[1] != len(channels):     # channels are read by position
         raise ConfigError(f"windows must have shape (n_windows, {len(channels)}, n_samples), "
                           f"got {x.shape}")

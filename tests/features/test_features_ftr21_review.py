@@ -117,3 +117,27 @@ def test_statistics_refuse_text_windows_and_text_names():
         calculators.statistics(np.array([["a", "b"]]), ("mean",))
     with pytest.raises(ConfigError, match="sequence of names"):
         calculators.statistics(np.ones((2, 4)), "mean")
+
+
+def _slip_window():
+    from features.slip_features import SLIP_CHANNELS
+
+    rng = np.random.default_rng(5)
+    x = rng.normal(size=(len(SLIP_CHANNELS), 20))
+    x[list(SLIP_CHANNELS).index("az")] += 9.81
+    return x, list(SLIP_CHANNELS)
+
+
+def test_slip_features_refuse_a_channel_named_twice():
+    """A window of 13 rows whose last is named cur_l again: the features read whichever
+    came last, silently (WindowFeatures and WheelPhysicsFeatures refuse it): refused."""
+    from features.slip_features import slip_feature_matrix, window_feature_vector
+    from terrain.vehicles.skid_steer import HuskyParams
+
+    x, ch = _slip_window()
+    x2 = np.vstack([x, 5.0 + x[:1]])
+    with pytest.raises(ConfigError, match="cur_l"):
+        window_feature_vector(x2, ch + ["cur_l"], 20.0, HuskyParams())
+    with pytest.raises(ConfigError, match="cur_l"):
+        slip_feature_matrix(x2[None], ch + ["cur_l"], 20.0, HuskyParams())
+
