@@ -195,6 +195,7 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     twice = duplicated(channels)
     if twice:      # (the channels are read by position: the last of the two was read)
         raise ConfigError(f"slip features: channels {twice} named twice")
+    x = np.asarray(x)     # (nested lists failed on x.ndim; the statistics judge the dtype)
     if x.ndim != 3 or x.shape[1] != len(channels):     # channels are read by position
         raise ConfigError(f"windows must have shape (n_windows, {len(channels)}, n_samples), "
                           f"got {x.shape}")

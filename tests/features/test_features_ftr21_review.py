@@ -141,3 +141,15 @@ def test_slip_features_refuse_a_channel_named_twice():
     with pytest.raises(ConfigError, match="cur_l"):
         slip_feature_matrix(x2[None], ch + ["cur_l"], 20.0, HuskyParams())
 
+
+def test_slip_feature_matrix_takes_nested_lists():
+    """Windows given as nested lists: the same features as the array (was AttributeError
+    'list' object has no attribute 'ndim')."""
+    from features.slip_features import slip_feature_matrix
+    from terrain.vehicles.skid_steer import HuskyParams
+
+    x, ch = _slip_window()
+    names, want = slip_feature_matrix(x[None], ch, 20.0, HuskyParams())
+    names2, got = slip_feature_matrix(x[None].tolist(), ch, 20.0, HuskyParams())
+    assert names == names2
+    np.testing.assert_array_equal(got, want)
