@@ -189,10 +189,13 @@ def add_ekf_channels(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None,
     Returns
     -------
     pandas.DataFrame
-        ``frame`` with the EKF channels as extra columns, or ``frame`` itself.
+        ``frame`` with the EKF channels as extra columns (those it already held, from an
+        earlier pass, replaced: the step is idempotent), or ``frame`` itself.
     """
     if not {TIME, "vel_l", "vel_r", "wz"} <= set(frame.columns):
         return frame
+    # channels of an earlier pass are replaced (appended again, each name occurred twice)
+    frame = frame.drop(columns=[c for c in EKF_CHANNELS if c in frame.columns])
     if len(frame) < 2:
         return pd.concat([frame, pd.DataFrame(np.nan, index=frame.index,
                                               columns=list(EKF_CHANNELS))], axis=1)

@@ -153,3 +153,21 @@ def test_slip_feature_matrix_takes_nested_lists():
     names2, got = slip_feature_matrix(x[None].tolist(), ch, 20.0, HuskyParams())
     assert names == names2
     np.testing.assert_array_equal(got, want)
+
+
+@pytest.mark.parametrize("n", [1, 50])
+def test_add_ekf_channels_is_idempotent(n):
+    """A frame that already holds the EKF channels (the step run twice): the same frame
+    back, not ten duplicated ekf_* columns (frame['ekf_v_bx'] then a DataFrame)."""
+    import pandas as pd
+
+    from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
+
+    t = np.arange(n) * 0.02
+    frame = pd.DataFrame({"t_s": t, "vel_l": 0.5 + 0.01 * np.sin(t), "vel_r": np.full(n, 0.6),
+                          "wz": np.full(n, 0.1)})
+    once = add_ekf_channels(frame)
+    twice = add_ekf_channels(once)
+    assert not twice.columns.duplicated().any()
+    assert list(twice.columns) == list(frame.columns) + list(EKF_CHANNELS)
+    pd.testing.assert_frame_equal(twice, once)
