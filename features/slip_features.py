@@ -30,7 +30,8 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import ConfigError, config_positive, duplicated, first_items, listed
+from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
+                            refuse_booleans)
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id
 from terrain.sim.sensors import SensorSettings
@@ -141,12 +142,16 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     ------
     ConfigError
         ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
-        missing or named twice, or ``rate_hz`` is not a finite number > 0.
+        missing or named twice, ``rate_hz`` is not a finite number > 0, or a terrain
+        probability is a boolean.
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 2 or x.shape[0] != len(channels):
         raise ConfigError(f"one window must have shape ({len(channels)}, n_samples), "
                           f"got {x.shape}")
+    if terrain_probabilities is not None:     # (True was read as probability 1)
+        refuse_booleans(ConfigError, "window_feature_vector", **{
+            f"probability of {k}": v for k, v in terrain_probabilities.items()})
     probs = (None if terrain_probabilities is None else
              {str(k): np.asarray([v], dtype=float) for k, v in terrain_probabilities.items()})
     return slip_feature_matrix(x[None], channels, rate_hz, vehicle, probs,
@@ -186,8 +191,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     ------
     ConfigError
         A channel of :data:`SLIP_CHANNELS` is missing, a channel is named twice, ``x`` is
-        not 3-D with one row per channel and at least 2 samples, or ``rate_hz`` is not a
-        finite number > 0.
+        not 3-D with one row per channel and at least 2 samples, ``rate_hz`` is not a
+        finite number > 0, or a terrain probability holds booleans.
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
@@ -221,6 +226,9 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["vel_diff"]] / vehicle.track_m,
                                       INV_CHI_FLOOR_RAD_S)
     if probabilities is not None:
+        # (a boolean mask of the terrain seen was read as probabilities 0 and 1)
+        refuse_booleans(ConfigError, "slip features", **{
+            f"probability of {k}": p for k, p in probabilities.items()})
         for k, p in probabilities.items():
             cols[f"p__{k}"] = p
         cur = np.column_stack([cols["cur_l__mean"], cols["cur_r__mean"]])

@@ -171,3 +171,16 @@ def test_add_ekf_channels_is_idempotent(n):
     assert not twice.columns.duplicated().any()
     assert list(twice.columns) == list(frame.columns) + list(EKF_CHANNELS)
     pd.testing.assert_frame_equal(twice, once)
+
+
+def test_slip_features_refuse_boolean_terrain_probabilities():
+    """A terrain probability given as True (a mask of the terrain seen): refused naming the
+    terrain (was read as probability 1)."""
+    from features.slip_features import slip_feature_matrix, window_feature_vector
+    from terrain.vehicles.skid_steer import HuskyParams
+
+    x, ch = _slip_window()
+    with pytest.raises(ConfigError, match="GRASS"):
+        window_feature_vector(x, ch, 20.0, HuskyParams(), {"GRASS": True})
+    with pytest.raises(ConfigError, match="GRASS"):
+        slip_feature_matrix(x[None], ch, 20.0, HuskyParams(), {"GRASS": np.array([True])})
