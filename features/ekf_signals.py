@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (DataFormatError, EstimationError, ShapeError, duplicated,
-                            refuse_booleans)
+                            refuse_booleans, refuse_unreal)
 from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
                                            skid_steer_on_windows)
 from terrain.run import TIME
@@ -123,7 +123,7 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     ------
     terrain.errors.DataFormatError
         ``channels`` lacks ``vel_l``, ``vel_r`` or ``wz``, or names one of them twice (the
-        channels are read by position).
+        channels are read by position), or ``X`` does not convert to real numbers (text).
     terrain.errors.EstimationError
         ``X`` holds booleans (a mask: cast, they ran the filter on speeds of 0 and 1 m/s).
     terrain.errors.ShapeError, terrain.errors.NonFiniteInputError
@@ -139,7 +139,11 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
         raise DataFormatError(f"EKF channels: {twice} named twice among the window channels "
                               f"{names}", None, twice[0])
     refuse_booleans(EstimationError, "window_ekf_channels", X=X)
-    X = np.asarray(X, dtype=float)
+    try:
+        X = np.asarray(X, dtype=float)
+    except (TypeError, ValueError):     # (text failed inside NumPy, naming nothing)
+        refuse_unreal("window_ekf_channels", X=X)
+        raise
     if X.ndim != 3 or X.shape[1] != len(names):
         raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")
     idx = [names.index(c) for c in ("vel_l", "vel_r", "wz")]

@@ -184,3 +184,14 @@ def test_slip_features_refuse_boolean_terrain_probabilities():
         window_feature_vector(x, ch, 20.0, HuskyParams(), {"GRASS": True})
     with pytest.raises(ConfigError, match="GRASS"):
         slip_feature_matrix(x[None], ch, 20.0, HuskyParams(), {"GRASS": np.array([True])})
+
+
+def test_window_ekf_channels_refuse_text_windows():
+    """Text samples: a DataFormatError naming X (was NumPy's 'could not convert string to
+    float')."""
+    from features.ekf_signals import window_ekf_channels
+    from terrain.errors import DataFormatError
+
+    X = np.full((1, 3, 5), "a")
+    with pytest.raises(DataFormatError, match="X must hold real numbers"):
+        window_ekf_channels(X, ("vel_l", "vel_r", "wz"), 50.0)
