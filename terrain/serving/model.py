@@ -22,7 +22,7 @@ import numpy as np
 import yaml
 
 from features.windows import DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig
-from terrain.errors import ConfigError, duplicated
+from terrain.errors import ConfigError, config_positive, duplicated
 from terrain.io.shipped import dataset_vehicle
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
 
@@ -263,11 +263,20 @@ def model_channel_steps_s(metadata: Mapping[str, Any]) -> dict[str, float]:
     if value is None:
         return {}
     if not isinstance(value, Mapping) or not all(
-            isinstance(c, str) and not isinstance(v, bool) and isinstance(v, (int, float))
-            and math.isfinite(v) and v > 0 for c, v in value.items()):
+            isinstance(c, str) and _is_step(v) for c, v in value.items()):
         raise ConfigError(f"metadata channel_steps_s must map channel names to steps > 0 "
                           f"(s), got {value!r}"[:300])
     return {str(c): float(v) for c, v in value.items()}
+
+
+def _is_step(value) -> bool:
+    """Whether ``value`` is a real number > 0 finite as a float (a NumPy scalar included,
+    a boolean not; an integer beyond the float range raised a bare OverflowError)."""
+    try:
+        config_positive("channel_steps_s", step=value)
+        return math.isfinite(float(value))
+    except (ConfigError, OverflowError):
+        return False
 
 
 def imu_rate_note(channels, model_rate_hz: float, run: Run) -> str | None:
