@@ -69,7 +69,8 @@ class CataloguePeakTargets:
     Parameters
     ----------
     classes : sequence of str
-        Terrain classes of the model (each must be in the catalogue).
+        Terrain classes of the model (each must be in the catalogue; any case, kept in
+        upper case as the desired-slip table keeps them).
     min_confidence : float
         Confidence below which the fallback is returned.
 
@@ -88,7 +89,9 @@ class CataloguePeakTargets:
         for name in classes:
             params = get_terrain(name)
             peak = traction_peak(params.curve).slip
-            table[name] = SlipTargets(peak, -peak, steady_slip(params))
+            # keyed in upper case, as check_provider and the desired-slip table read a
+            # class: one built from 'snow' answered the model's 'SNOW' with the fallback
+            table[name.upper()] = SlipTargets(peak, -peak, steady_slip(params))
         if not table:
             raise ConfigError("CataloguePeakTargets needs at least one class")
         self.table: Mapping[str, SlipTargets] = MappingProxyType(table)
@@ -102,7 +105,7 @@ class CataloguePeakTargets:
         Parameters
         ----------
         terrain : str or None
-            Decided class.
+            Decided class (in any case).
         confidence : float
             Its smoothed probability; not trusted (the fallback) below ``min_confidence``,
             above 1 or not finite, as the table's rule
@@ -114,10 +117,11 @@ class CataloguePeakTargets:
         -------
         SlipTargets
         """
-        if terrain is None or stale or terrain not in self.table \
+        key = None if terrain is None else str(terrain).upper()
+        if key is None or stale or key not in self.table \
                 or not confidence_is_trusted(confidence, self.min_confidence):
             return self.fallback
-        return self.table[terrain]
+        return self.table[key]
 
 
 class TableTargets:
