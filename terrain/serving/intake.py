@@ -268,6 +268,7 @@ class StreamIntake:
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
         reached = False   # a sample refused for its values was stamped past the newest
+        unstamped = []    # (arrival position, reason) of samples refused without a stamp
         for rule in self.rules:
             keep, reason = rule(channels, t, v, buf.last_t)
             if not keep.all():
@@ -276,17 +277,16 @@ class StreamIntake:
                 if reason != TIME_RULE:
                     reached = reached or bool(((bad_t > buf.last_t)
                                                & (bad_t <= MAX_PLAUSIBLE_TIME_S)).any())
-                # a sample without a usable stamp is flagged at the stream's newest time
-                # (the service's before the stream's first sample; the first window's
-                # start before any sample at all)
-                at = buf.last_t if len(buf) else self.newest()
-                if not np.isfinite(bad_t).all() and at == -np.inf:
-                    self.unplaced.add((stream, reason))
-                for bt in bad_t.tolist():
-                    self.note(stream, bt if math.isfinite(bt) else at, reason)
+                for bt, at in zip(bad_t.tolist(), order[~keep].tolist()):
+                    if math.isfinite(bt):
+                        self.note(stream, bt, reason)
+                    else:
+                        unstamped.append((at, reason))
                 if reason == TIME_RULE:
                     late = (t[~keep], v[~keep], order[~keep])
                 t, v, order = t[keep], v[keep], order[keep]
+        if unstamped:
+            self._note_unstamped(stream, unstamped, t, order)
         if reached and not len(t):
             # a push refused whole for its values still says the stream went on: its kept
             # samples have all arrived (as when they came one by one), so it lags no more
@@ -312,6 +312,23 @@ class StreamIntake:
         self._watch_restart(stream, late, order, t, v)
         if any(c.ahead is not None for c in self.clocks.values()):
             self._resolve_ahead()
+
+    def _note_unstamped(self, stream: str, unstamped: list[tuple[int, str]],
+                        kept_t: np.ndarray, kept_order: np.ndarray) -> None:
+        """Flag the samples of a chunk refused without a usable stamp (``(arrival
+        position, reason)``) at the stream's newest time when each came: the stamp of the
+        chunk's kept sample before it, else the stream's newest (the service's before the
+        stream's first sample; the first window's start before any sample at all), as
+        pushed one by one (flagged at the newest before the chunk, a NaN stamp flagged a
+        window the same samples one by one left unflagged)."""
+        buf = self.buffers[stream]
+        before = buf.last_t if len(buf) else self.newest()
+        for pos, reason in unstamped:
+            i = int(np.searchsorted(kept_order, pos))
+            at = float(kept_t[i - 1]) if i else before
+            if at == -np.inf:
+                self.unplaced.add((stream, reason))
+            self.note(stream, at, reason)
 
     def _judge_units(self, stream: str, t: np.ndarray, v: np.ndarray, slowest: float
                      ) -> tuple[np.ndarray, np.ndarray] | None:

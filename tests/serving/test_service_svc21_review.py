@@ -35,3 +35,32 @@ def test_catalogue_targets_answer_a_class_in_any_case_as_the_provider_check_acce
     assert snow != targets.fallback
     assert targets.target_for("SNOW", 0.9, False) == snow
     assert targets.target_for("Snow", 0.9, True) == targets.fallback   # stale: fallback
+
+
+def _two_stream_service():
+    """The svc17 stand-in model (a softmax of the mean wheel speeds, 8 Hz) on two streams."""
+    from test_service_properties_svc17_review import _service
+    return _service()
+
+
+def test_a_sample_without_a_stamp_is_flagged_where_one_by_one_flags_it_in_any_chunking():
+    # a right sample with a NaN stamp inside a chunk was flagged at the stream's newest
+    # stamp before the chunk (100.75 s, inside the window ending at 101.125 s), not at the
+    # sample before it in the chunk (101.25 s), where pushed one by one it is: the window's
+    # flags depended on the chunking
+    tl = 100.0 + np.arange(1, 8) * 0.09375
+    tr = 100.0 + np.arange(1, 20) * 0.125
+    tr[9] = np.nan
+    flags = []
+    for chunks in ([[i] for i in range(6, 19)], [list(range(6, 18)), [18]]):
+        svc, out = _two_stream_service(), []
+        for i in range(6):
+            out += svc.push("left", tl[i:i + 1], {"vel_l": [0.0]})
+            out += svc.push("right", tr[i:i + 1], {"vel_r": [0.0]})
+        out += svc.push("left", tl[6:], {"vel_l": [0.0]})
+        for idx in chunks:
+            out += svc.push("right", tr[idx], {"vel_r": np.zeros(len(idx))})
+        assert svc.refused_samples == {("right", "non_finite"): 1}
+        flags.append([(d.t_s, d.flags) for d in out])
+    assert flags[0] == flags[1]
+    assert flags[0][0] == (101.125, "short")
