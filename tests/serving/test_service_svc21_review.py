@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from terrain.errors import ConfigError
 from terrain.serving import CataloguePeakTargets
@@ -64,3 +66,29 @@ def test_a_sample_without_a_stamp_is_flagged_where_one_by_one_flags_it_in_any_ch
         flags.append([(d.t_s, d.flags) for d in out])
     assert flags[0] == flags[1]
     assert flags[0][0] == (101.125, "short")
+
+
+@settings(max_examples=40, deadline=None,
+          suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@given(data=st.data(), kinds=st.tuples(*[st.sampled_from(["value", "stamp", "range"])] * 2))
+def test_two_faulty_streams_decide_and_flag_the_same_one_by_one_and_in_chunks(data, kinds):
+    """The svc17 chunking property with samples refused for their values (NaN, out of the
+    plausible range) or without a stamp (NaN) in either stream: the decisions, their flags
+    and the counts do not depend on how the samples are chunked."""
+    from test_service_properties_svc17_review import (_chunked, _key, _push_chunks,
+                                                      _service, _two_streams)
+    order, arrays = data.draw(_two_streams(min_size=5, max_size=50))
+    for (t, v), kind in zip(arrays.values(), kinds):
+        bad = np.array(data.draw(st.lists(st.booleans(), min_size=len(v), max_size=len(v))))
+        bad &= np.arange(len(v)) % 3 == 0
+        if kind == "value":
+            v[bad] = np.nan
+        elif kind == "range":
+            v[bad] = 1e6
+        else:
+            t[bad] = np.nan
+    one, chunked = _service(), _service()
+    a, _ = _push_chunks(one, arrays, [(s, [i]) for s, i in order])
+    b, _ = _push_chunks(chunked, arrays, data.draw(_chunked(order)))
+    assert _key(a) == _key(b)
+    assert one.refused_samples == chunked.refused_samples
