@@ -69,7 +69,7 @@ class RingBuffer:
     def mark_arrived(self) -> None:
         """Say that every kept sample has arrived: :attr:`batch_first_t` becomes
         :attr:`last_t`, as after a push of the newest sample alone (a later push whose
-        samples were all refused for their values still shows the stream went on)."""
+        samples were all refused still shows the stream went on)."""
         self._batch_t = np.inf
 
     def append(self, t_s: np.ndarray, values: np.ndarray) -> None:

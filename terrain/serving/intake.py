@@ -256,7 +256,8 @@ class StreamIntake:
             if resent.any():
                 self.refused[(stream, DUPLICATE)] += int(resent.sum())
                 t, v = t[~resent], v[~resent]
-                if not len(t):
+                if not len(t):   # all sent again: the kept samples have arrived
+                    buf.mark_arrived()
                     return
         slowest = clock.ms_step_s
         if slowest is not None and not judged:   # rule timestamp_units
@@ -267,16 +268,12 @@ class StreamIntake:
             buf = self.buffers[stream]   # (held samples taken meanwhile may restart)
         order = np.arange(len(t))  # arrival position of each sample still in play
         late: tuple[np.ndarray, np.ndarray, np.ndarray] | None = None
-        reached = False   # a sample refused for its values was stamped past the newest
         unstamped = []    # (arrival position, reason) of samples refused without a stamp
         for rule in self.rules:
             keep, reason = rule(channels, t, v, buf.last_t)
             if not keep.all():
                 bad_t = t[~keep]
                 self.refused[(stream, reason)] += len(bad_t)
-                if reason != TIME_RULE:
-                    reached = reached or bool(((bad_t > buf.last_t)
-                                               & (bad_t <= MAX_PLAUSIBLE_TIME_S)).any())
                 for bt, at in zip(bad_t.tolist(), order[~keep].tolist()):
                     if math.isfinite(bt):
                         self.note(stream, bt, reason)
@@ -287,9 +284,10 @@ class StreamIntake:
                 t, v, order = t[keep], v[keep], order[keep]
         if unstamped:
             self._note_unstamped(stream, unstamped, t, order)
-        if reached and not len(t):
-            # a push refused whole for its values still says the stream went on: its kept
-            # samples have all arrived (as when they came one by one), so it lags no more
+        if not len(t):
+            # a later push, refused whole (for its values, its stamp or a stamp going back),
+            # still says the stream's kept samples have all arrived (as when they came one by
+            # one): it lags no more
             buf.mark_arrived()
         # a step forward longer than clock_restart_s and stale_s, or a stream's first
         # samples (one comparison on the usual push)

@@ -33,7 +33,7 @@ how old). The samples of a chunk arrive together, so the other streams' samples 
 may still be on their way: a stream's staleness is judged from the first sample of its
 newest push, not its last, and a chunk longer than ``stale_s`` makes no decision early
 (one by one, as before; a stream silent for good is judged stale one chunk later). A later
-push whose samples were all refused for their values still shows the stream went on: its
+push whose samples were all refused (values, stamps) still shows the stream went on: its
 kept samples count as arrived one by one.
 
 A sample that arrives after every stream has been silent for long (a paused robot, a

@@ -575,20 +575,20 @@ def test_a_refused_last_sample_pushed_alone_leaves_no_decision_undecided():
     assert _key(b) == _key(a)
 
 
-def test_only_a_push_refused_for_its_values_past_the_newest_sample_marks_arrival():
-    """A chunk then a push refused whole: for a NaN value stamped past the chunk, the
-    buffer's kept samples count as arrived (``batch_first_t`` is its newest sample, as one
-    by one); for a stamp going back (``time_not_increasing``) or a NaN stamp, nothing is
-    said of the stream's progress and the chunk's first sample stays the mark."""
+def test_a_push_refused_whole_marks_the_kept_samples_as_arrived():
+    """A chunk then a push refused whole: for a NaN value stamped past the chunk, a stamp
+    going back (here a sample sent again), a NaN stamp, or both, the buffer's kept samples
+    count as arrived (``batch_first_t`` is its newest sample, as one by one: svc21 found
+    one by one giving 2 more decisions than a chunk followed by a NaN-stamped sample)."""
     t = 100 + np.arange(20) / 8
-    for stamp, value, arrived in [(102.6, math.nan, t[-1]), (101.0, 0.0, t[0]),
-                                  (math.nan, 0.0, t[0]), (101.0, math.nan, t[0])]:
+    for stamp, value in [(102.6, math.nan), (101.0, 0.0), (math.nan, 0.0),
+                         (101.0, math.nan)]:
         svc = _const_service([0.9, 0.05, 0.05])
         svc.push("wheels", t, np.zeros((20, 2)))
         assert svc._intake.buffers["wheels"].batch_first_t == t[0]
         svc.push("wheels", np.array([stamp]), np.full((1, 2), value))
         buf = svc._intake.buffers["wheels"]
-        assert buf.batch_first_t == arrived, (stamp, value)
+        assert buf.batch_first_t == t[-1], (stamp, value)
         assert buf.last_t == t[-1] and len(buf) == 20
     buf.append(np.array([103.0]), np.zeros((1, 2)))     # the next push sets it again
     assert buf.batch_first_t == 103.0
