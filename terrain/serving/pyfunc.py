@@ -41,16 +41,15 @@ from typing import Any, Sequence
 import numpy as np
 import pandas as pd
 
-from features.windows import (DERIVED_WHEEL_CHANNELS, HUSKY_TRACK_M, WindowConfig,
-                              add_derived_channels, derived_track_m, required_streams,
-                              window_frame)
+from features.windows import (HUSKY_TRACK_M, WindowConfig, add_derived_channels,
+                              derived_track_m, required_streams, window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
                             TimestampError, duplicated)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_ranges
 from terrain.run import TIME, Run
-from terrain.serving.model import (load_pipeline, model_vehicle, new_model_directory,
-                                   read_model_metadata)
+from terrain.serving.model import (load_pipeline, measured_channels, model_vehicle,
+                                   new_model_directory, read_model_metadata)
 from terrain.serving.request import numeric_column
 
 try:  # mlflow is a hard dependency; the guard keeps the class importable for docs tools
@@ -81,12 +80,10 @@ def input_channels(channels: Sequence[str]) -> list[str]:
     -------
     list of str
         The raw channels of ``channels``, in order, followed by ``vel_l, vel_r, cur_l,
-        cur_r`` (m/s, A) when a derived channel needs them.
+        cur_r`` (m/s, A) when a derived channel needs them
+        (:func:`~terrain.serving.model.measured_channels`).
     """
-    raw = [c for c in channels if c not in DERIVED_WHEEL_CHANNELS]
-    if any(c in DERIVED_WHEEL_CHANNELS for c in channels):
-        raw += [c for c in ("vel_l", "vel_r", "cur_l", "cur_r") if c not in raw]
-    return raw
+    return list(measured_channels(channels))
 
 
 def runs_to_model_input(runs: Sequence[Run], channels: Sequence[str],
