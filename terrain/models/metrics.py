@@ -28,14 +28,12 @@ def _check_windows(owner: str, **columns) -> None:
 
 
 def _check_classes(owner: str, classes: Sequence[str]) -> list:
-    """``classes`` as a list; ConfigError where one is repeated (scored twice) or none."""
+    """``classes`` as a list; ConfigError where one is repeated (it would be scored twice)."""
     classes = list(classes)
     repeated = duplicated(classes)
     if repeated:
         raise ConfigError(f"{owner}: classes must be distinct, {repeated} given more than "
                           "once (a repeated class is scored twice)")
-    if not classes and owner == "confusion":
-        raise ConfigError("confusion: classes is empty: the matrix would have no row")
     return classes
 
 
@@ -193,6 +191,8 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
     """
     _check_windows("confusion", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("confusion", classes)
+    if not classes:
+        raise ConfigError("confusion: classes is empty: the matrix would have no row")
     cm = confusion_matrix(y_true, y_pred, labels=classes)
     return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
                         columns=pd.Index(classes, name="predicted"))
