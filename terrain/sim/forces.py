@@ -789,8 +789,15 @@ def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarr
     ``v1``: ``|I|`` of the motor law :meth:`terrain.vehicles.common.MotorParams.current_from_torque`
     in every quadrant. ``v2``: the same while the motor drives (torque and speed of the same
     sign); while it brakes (torque against the speed, the motor absorbs power) the report is
-    the no-load current only, ``I_0 |tanh(omega / 0.05)|``: the Husky's current reading follows
-    the power drawn, not the braking current circulating in the bridge. This is a sensor
+    the no-load current only, ``I_0 m`` with ``m = |tanh(omega / 0.05)|``: the Husky's current
+    reading follows the power drawn, not the braking current circulating in the bridge. Near
+    rest the torque that holds the wheel is reported as is, blended in with weight ``1 - m``
+    (``k = N k_t eta``)::
+
+        I = I_0 m + m max(T sgn(omega), 0) / k + (1 - m) |T| / k
+
+    so a wheel braked at a speed under about 0.05 rad/s reports part of its holding current
+    as well. This is a sensor
     model identified by the audit on the measured runs (docs/physics_v2.md: with ``|I|`` the
     replay over-predicts the current by 6 A on ASPHALT while the wheels decelerate faster
     than 0.3 m/s^2, and the 2 Hz output filter smears that into the stand-still samples).

@@ -697,3 +697,22 @@ def test_the_tracked_vehicles_own_cog_height_sets_its_load_transfer(monkeypatch)
     # climbing a 0.1 rad grade the rear contacts carry more; the transfer is proportional to
     # the height (transferred_normal_loads): 0.40 m moves 2.7 times what 0.150 m moves
     assert rear_minus_front[0.40] > 2.0 * rear_minus_front[0.150] > 0.0
+
+
+def test_v2_current_report_blends_the_holding_current_in_near_rest():
+    """The docstring said a braking wheel reports the no-load current only, I_0 m; near rest
+    the holding torque's current is blended in with weight 1 - m (m = |tanh(omega/0.05)|), as
+    the code does and the docstring now says: braking at 0.01 rad/s reports more than I_0 m,
+    at 2 rad/s I_0 m to 1e-9, and at rest |T| / k."""
+    from terrain.sim.forces import reported_current_a
+    motor = HUSKY.motor
+    k = motor.gear_ratio * motor.torque_constant_nm_per_a * motor.efficiency
+    torque = np.array([-5.0, -5.0, -5.0])
+    omega = np.array([2.0, 0.01, 0.0])
+    got = reported_current_a(motor, torque, omega, "v2")
+    m = np.abs(np.tanh(omega / 0.05))
+    want = motor.no_load_current_a * m + (1 - m) * 5.0 / k
+    np.testing.assert_allclose(got, want, rtol=1e-12)
+    assert got[0] == pytest.approx(motor.no_load_current_a * m[0], abs=1e-9)
+    assert got[1] > motor.no_load_current_a * m[1] + 0.5
+    assert got[2] == pytest.approx(5.0 / k)
