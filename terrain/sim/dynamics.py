@@ -167,9 +167,10 @@ class PhysicsResult:
     load_floor_steps : ndarray of int, shape (c,), or None
         Physics v2 with load transfer only (None without: v1, or a vehicle with no
         centre-of-gravity height): physics steps on which each contact's transferred normal
-        load was held at the floor of :data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its
-        static load (the transfer asked for less: a wheel about to lift,
-        :func:`terrain.sim.forces.transferred_normal_loads`).
+        load was floored at :data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load
+        (the transfer asked for less: a wheel about to lift); the loads are then rescaled to
+        the static total, so a floored load ends within that rescaling of the floor
+        (:func:`terrain.sim.forces.transferred_normal_loads`).
     """
 
     t_s: np.ndarray

@@ -30,8 +30,9 @@ command asked for more than the motor speed limit and was clipped to it (per sid
 motor, the physics steps on which the command plus the controller's correction exceeded the
 limit and was clipped to it (``terrain control-sim`` reports both counts in its JSON).
 Physics v2 with load transfer only, ``load_floor_steps``: per contact, the physics steps on
-which its transferred normal load was held at the floor of
-:data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load (a wheel about to lift).
+which its transferred normal load was floored at
+:data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load (a wheel about to lift; the
+loads are then rescaled to the static total).
 """
 
 from __future__ import annotations
