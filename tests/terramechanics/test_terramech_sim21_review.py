@@ -82,8 +82,9 @@ def test_a_wheel_carrying_more_load_resists_sliding_at_least_as_much(name, loads
     "sim21: with shear_long (SoilParams.combined_shear) the lateral shear strength "
     "c b l + N tan phi subtracted for the longitudinal share is computed at the load, while "
     "the strength it is subtracted from is interpolated from the table whose unloaded row is "
-    "0; below the table's first loaded row (7.8 N of a Husky wheel on the 600 N table here, "
-    "where the v2 load floor of 5 % of a static load lies) the strength left is negative and "
+    "0; below the table's first loaded row (9.5 N on the 600 N table here, 7.8 N on the "
+    "simulator's 490 N Husky table, where the v2 load floor of 5 % of a static load lies) "
+    "the strength left can be negative and "
     "the force pushes the wheel the way it slides (energy created, slope > 0). Not fixed: "
     "the combined_shear variants' figures in docs/physics_v2.md were measured with it"))
 def test_with_the_shared_shear_strength_a_lightly_loaded_wheel_still_resists():
