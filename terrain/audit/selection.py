@@ -212,7 +212,7 @@ class GroupResult:
     final_rmse : float
         Held-out RMSE of the final model (pooled over units; rad/s or A).
     units : tuple of tuple of AuditFrame
-        Cross-validation units.
+        Cross-validation units, in run-id order (a run's segments by start time).
     heldout_params : tuple
         Final-model parameters fitted without each unit (same order as ``units``).
     segmented : bool
@@ -547,6 +547,11 @@ def has_spread(strata: np.ndarray) -> bool:
     return bool(counts.size and counts.max() >= 2)
 
 
+def _unit_key(unit: Sequence[AuditFrame]) -> tuple:
+    """Sort key of a cross-validation unit: run id and start time of each of its frames."""
+    return tuple((f.run_id, float(f.t_s[0])) for f in unit)
+
+
 def _strata(units: Units) -> np.ndarray:
     """Terrain of each unit (every frame of a unit comes from one run), shape (n_units,)."""
     return np.asarray([unit[0].terrain for unit in units])
@@ -847,7 +852,8 @@ def select_group(units: Units, group: str, terrain: str,
     Parameters
     ----------
     units : sequence of sequence of AuditFrame
-        Cross-validation units (at least 2).
+        Cross-validation units (at least 2); scored in run-id order (a run's segments by
+        start time), so that the bootstrap intervals do not depend on their order here.
     group : str
         ``timing``, ``yaw`` or ``current``.
     terrain : str
@@ -877,6 +883,9 @@ def select_group(units: Units, group: str, terrain: str,
         raise ConfigError(f"unknown group {group!r}; valid: {list(GROUPS)}")
     if len(units) < 2:
         raise ConfigError(f"need at least 2 cross-validation units, got {len(units)}")
+    # the bootstraps draw unit positions: in run-id order (segments of a run by their start),
+    # the same runs listed in another order (a caller's own list) get the same intervals
+    units = sorted(units, key=_unit_key)
     rng = np.random.default_rng(settings.seed)
     all_frames = [f for u in units for f in u]
     base_all, n_all = unit_errors(units, group, [GROUP_MODELS[group].no_effect()
