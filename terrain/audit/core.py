@@ -139,9 +139,9 @@ class AuditResult:
     settings : AuditSettings
         Settings the audit ran with.
     frames : tuple of AuditFrame
-        One per audited run.
+        One per audited run, in run-id order.
     skipped : dict
-        Run id -> why it was not audited.
+        Run id -> why it was not audited, in run-id order.
     groups : dict
         ``(terrain, group) -> GroupResult`` (terrain ``all`` = pooled).
     residuals : pandas.DataFrame
@@ -538,6 +538,10 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
         frames, skipped = prepare_frames(runs, settings)
     frames = list(frames)
     _require_unique_ids([f.run_id for f in frames])
+    # in run-id order (as read_runs_dir lists them): the audited-run list, the lag table and
+    # the figures drawn over the frames do not depend on the order the runs were given in
+    frames = sorted(frames, key=lambda f: f.run_id)
+    skipped = dict(sorted(skipped.items()))
     timings["replay_s"] = time.perf_counter() - t0
     if not frames:
         raise DataFormatError("no run could be audited: " + "; ".join(

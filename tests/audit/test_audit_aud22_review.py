@@ -155,3 +155,15 @@ def test_the_markdown_signal_table_states_the_jsons_numbers():
         assert cells[4] == _fmt(rec["replay_rmse"]), rec
         assert cells[7] == _fmt(rec.get("extended_rmse")), rec
         assert cells[2] == _fmt(rec.get("ideal_rmse")), rec
+
+
+def test_the_whole_report_does_not_depend_on_the_order_of_the_runs():
+    # the audited-run list, the lag table (and the figures drawn over result.frames, e.g.
+    # the yaw figure's sample draw) followed the caller's order
+    frames = _two_terrains()
+    a = _report(frames)
+    b = _report([frames[i] for i in (3, 1, 0, 2)])
+    for key in ("runs", "lags", "effects", "groups", "signals", "residuals_by_manoeuvre",
+                "residuals_by_run", "facts", "supported"):
+        assert b[key] == a[key], key
+    assert a["runs"]["audited"] == sorted(a["runs"]["audited"])
