@@ -167,3 +167,22 @@ def test_the_whole_report_does_not_depend_on_the_order_of_the_runs():
                 "residuals_by_run", "facts", "supported"):
         assert b[key] == a[key], key
     assert a["runs"]["audited"] == sorted(a["runs"]["audited"])
+
+
+def test_nothing_planted_names_nothing_on_any_terrain_nor_pooled():
+    frames = (_chi_frames(6, None, n=2) + _chi_frames(7, None, n=2, terrain="ICE",
+                                                      prefix="ice/run"))
+    assert _report(frames)["supported"] == {"ASPHALT": ["none"], "ICE": ["none"],
+                                            "all": ["none"]}
+
+
+@pytest.mark.parametrize("chi", [1.5, 1.8])
+def test_a_wider_planted_icr_expansion_fits_a_larger_chi(chi):
+    fits = []
+    for c in (chi, 2.0 * chi):
+        res = select_group([[f] for f in _chi_frames(8, c)], "yaw", "ASPHALT", NO_CI)
+        assert res.selected == ("icr_expansion",)
+        e = next(e for e in res.effects if e.name == "icr_expansion")
+        assert e.params["chi"] == pytest.approx(c, rel=0.03)
+        fits.append(e.params["chi"])
+    assert fits[1] > fits[0]
