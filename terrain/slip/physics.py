@@ -124,7 +124,7 @@ class PhysicsSlip(NamedTuple):
         Probability-weighted gross traction coefficient.
     saturated : ndarray of bool, shape (n, m)
         The curve of each row's most probable terrain was asked for its maximum traction or
-        more.
+        more (with several equally probable terrains, the curve of any of them).
     """
 
     slip: np.ndarray
@@ -606,9 +606,14 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         lower += w * lo
         upper += w * hi
         mu_w += w * mu
-        better = np.asarray(p, dtype=float) > best_p
+        p_row = np.asarray(p, dtype=float)
+        # a tie flags where any of the tied curves saturates (the first listed won before:
+        # the flag followed the order of the classes)
+        tied = p_row == best_p
+        saturated[tied] |= est.saturated[tied]
+        better = p_row > best_p
         saturated[better] = est.saturated[better]
-        best_p[better] = np.asarray(p, dtype=float)[better]
+        best_p[better] = p_row[better]
     # law of total variance: within-terrain variance + spread of the terrain-wise slips
     between = np.sqrt(np.maximum(second - mean ** 2, 0.0))
     std = np.sqrt(within + between ** 2)
