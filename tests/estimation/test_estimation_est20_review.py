@@ -1,0 +1,121 @@
+"""Review tests (est20): metamorphic relations of the EKF correction and of the skid-steer
+filter's clock.
+
+Rows of a measurement given in another order (with their groups), one correction with
+independent rows against the rows one after the other, and a run whose clock is shifted by
+a constant must give the same estimate.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from pipelines.validation.harness import simulate_husky
+from terrain.estimation.ekf import Gate, correct
+from terrain.estimation.skid_steer import estimate_skid_steer
+from terrain.run import TIME
+
+
+def _problem(seed: int, n: int, m: int):
+    rng = np.random.default_rng(seed)
+    a = rng.normal(size=(n, n))
+    P = a @ a.T + 1e-3 * np.eye(n)
+    return (rng.normal(size=n), P, 3.0 * rng.normal(size=m), rng.normal(size=(m, n)),
+            rng.uniform(0.1, 2.0, m), rng)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), n=st.integers(1, 5), m=st.integers(1, 5))
+def test_correct_rows_in_another_order_give_the_same_posterior_and_gating(seed, n, m):
+    """Measurement rows permuted (innovation, H, R and the gated groups alike): the same
+    posterior, NIS and accepted rows; R as a vector or as its diagonal matrix, checked or
+    not, agree."""
+    x, P, y, H, r, rng = _problem(seed, n, m)
+    gate = Gate(0.9)
+    groups = [np.array([i]) for i in range(m)]
+    x1, P1, i1 = correct(x, P, y, H, r, gate=gate, groups=groups)
+    perm = rng.permutation(m)
+    where = np.argsort(perm)
+    x2, P2, i2 = correct(x, P, y[perm], H[perm], r[perm], gate=gate,
+                         groups=[np.array([where[i]]) for i in range(m)])
+    np.testing.assert_allclose(x2, x1, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(P2, P1, rtol=1e-9, atol=1e-9)
+    np.testing.assert_array_equal(i2.accepted, i1.accepted[perm])
+    if i1.accepted.any():
+        np.testing.assert_allclose(i2.nis, i1.nis, rtol=1e-9)
+    else:
+        assert np.isnan(i1.nis) and np.isnan(i2.nis)
+    for R, check in ((np.diag(r), True), (r, False), (np.diag(r), False)):
+        # the unchecked path (the runner's) keeps a vector R as a vector: the same answer
+        x3, P3, i3 = correct(x, P, y, H, R, gate=gate, groups=groups, check=check)
+        np.testing.assert_allclose(x3, x1, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(P3, P1, rtol=1e-9, atol=1e-9)
+        np.testing.assert_allclose(i3.S, i1.S, rtol=1e-12, atol=1e-12)
+        np.testing.assert_array_equal(i3.accepted, i1.accepted)
+
+
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), n=st.integers(1, 5), m=st.integers(1, 5))
+def test_correct_batch_equals_rows_one_by_one_and_nis_is_the_innovation_norm(seed, n, m):
+    """Independent rows (diagonal R) in one correction or one after the other (each
+    innovation re-linearised about the new state, a linear h): the same posterior; the
+    posterior covariance is symmetric PSD and no larger than the prior; the NIS is
+    ``y^T S^-1 y`` with ``S = H P H^T + R`` (seed 001 eq. 4.14)."""
+    x, P, y, H, r, _ = _problem(seed, n, m)
+    xb, Pb, ib = correct(x, P, y, H, r)
+    xs, Ps = x, P
+    for i in range(m):
+        xs, Ps, _ = correct(xs, Ps, y[i:i + 1] - H[i] @ (xs - x), H[i:i + 1], r[i:i + 1])
+    np.testing.assert_allclose(xs, xb, rtol=1e-7, atol=1e-8)
+    np.testing.assert_allclose(Ps, Pb, rtol=1e-7, atol=1e-8)
+    np.testing.assert_array_equal(Pb, Pb.T)
+    assert np.linalg.eigvalsh(Pb).min() >= -1e-9
+    assert np.linalg.eigvalsh(P - Pb).min() >= -1e-7 * max(1.0, np.abs(P).max())
+    S = H @ P @ H.T + np.diag(r)
+    np.testing.assert_allclose(ib.S, S, rtol=1e-12, atol=1e-12)
+    assert ib.nis == pytest.approx(float(y @ np.linalg.solve(S, y)), rel=1e-7)
+
+
+@pytest.fixture(scope="module")
+def husky_run():
+    """10 s of mixed driving on asphalt (IMU and wheel samples on the 100 Hz grid)."""
+    return simulate_husky("ASPHALT", seed=4, duration_s=10.0, icr_expansion=1.5,
+                          gyro_bias=0.01).run
+
+
+def _shifted(run, shift_s: float):
+    streams = {}
+    for name, frame in run.streams.items():
+        frame = frame.copy()
+        frame[TIME] = frame[TIME] + shift_s
+        streams[name] = frame
+    return dataclasses.replace(run, streams=streams)
+
+
+def test_skid_steer_filter_at_a_given_rate_ignores_a_clock_shift(husky_run):
+    """The same run on a clock that starts a day (1e5 s) later, at a given filter rate: the
+    same estimate."""
+    a = estimate_skid_steer(husky_run, rate_hz=100.0)
+    b = estimate_skid_steer(_shifted(husky_run, 1e5), rate_hz=100.0)
+    np.testing.assert_allclose(b.t_s - 1e5, a.t_s, atol=1e-9)
+    np.testing.assert_allclose(b.x, a.x, atol=1e-9)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "left alone (est20): the default filter rate 1 / median(diff(t_imu)) of a clock shifted "
+    "by 1e5 s is 100.0000000524 Hz for 100 Hz samples (their differences are quantised to "
+    "1.5e-11 s), so the grid drifts 5e-9 s from the samples after 1000 steps, past the 1e-9 s "
+    "placement tolerance of terrain.run.step_index: samples land one step late and the "
+    "states differ by up to 0.02; a fix (rate snapping or a relative placement tolerance, "
+    "shared with the simulator) could move measured figures"))
+def test_skid_steer_filter_at_its_default_rate_ignores_a_clock_shift(husky_run):
+    """The same run on a clock that starts a day later, at the filter's default rate (the
+    IMU's median sample rate): the same estimate."""
+    a = estimate_skid_steer(husky_run)
+    b = estimate_skid_steer(_shifted(husky_run, 1e5))
+    np.testing.assert_allclose(b.x, a.x, atol=1e-6)
