@@ -249,7 +249,10 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     # keep the lags before the first one below the threshold
     kept = np.cumprod(np.nan_to_num(acf, nan=-1.0) >= threshold, axis=-1, dtype=bool)
     tau = 1.0 + 2.0 * np.where(kept, acf, 0.0).sum(axis=-1)
-    return np.where(var > 0, tau, np.where(np.isfinite(var), 1.0, np.nan))
+    # constant by its values, not by var > 0: the mean of 0.3 repeated is 5.6e-17 off it,
+    # and the residuals, one tiny constant, were perfectly correlated (tau ~ N)
+    constant = (x == x[..., :1]).all(axis=-1)
+    return np.where((var > 0) & ~constant, tau, np.where(np.isfinite(var), 1.0, np.nan))
 
 
 def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:

@@ -16,6 +16,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from pipelines.validation.harness import simulate_husky
+from terrain.estimation.consistency import (effective_sample_size,
+                                            integrated_autocorrelation_time)
 from terrain.estimation.ekf import Gate, correct
 from terrain.estimation.skid_steer import estimate_skid_steer
 from terrain.run import TIME
@@ -119,3 +121,27 @@ def test_skid_steer_filter_at_its_default_rate_ignores_a_clock_shift(husky_run):
     a = estimate_skid_steer(husky_run)
     b = estimate_skid_steer(_shifted(husky_run, 1e5))
     np.testing.assert_allclose(b.x, a.x, atol=1e-6)
+
+
+@pytest.mark.parametrize("value", [0.1, 0.3, 2.2, 7.1, 1e6 + 0.1, -0.0])
+def test_constant_series_has_autocorrelation_time_1_whatever_its_value(value):
+    """A constant row has ``tau = 1`` (documented): 0.3 repeated 500 times gave 498.8 (its
+    mean is 5.6e-17 off 0.3, so the residuals were one tiny constant, perfectly
+    correlated) where 0.1 gave 1, and its effective sample size was 1 instead of 500."""
+    x = np.full(500, value)
+    assert integrated_autocorrelation_time(x) == 1.0
+    assert effective_sample_size(x) == 500.0
+    rows = np.stack([x, np.full(500, 0.1), np.full(500, np.nan)])
+    np.testing.assert_array_equal(integrated_autocorrelation_time(rows), [1.0, 1.0, np.nan])
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), scale=st.sampled_from([1e-3, 3.0, -2.0]),
+       offset=st.sampled_from([0.0, 0.3, -50.0]))
+def test_autocorrelation_time_is_affine_invariant(seed, scale, offset):
+    """``tau`` of ``scale x + offset`` is ``tau`` of ``x`` (a correlation does not see units
+    or a bias)."""
+    rng = np.random.default_rng(seed)
+    x = np.convolve(rng.normal(size=400), np.ones(5) / 5, "same")
+    np.testing.assert_allclose(integrated_autocorrelation_time(scale * x + offset),
+                               integrated_autocorrelation_time(x), rtol=1e-6)
