@@ -161,8 +161,9 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
         A time and its values not 1-D of one shape (the arguments are named).
     EstimationError
         Fewer than 20 finite samples in a signal, too little overlap, a flat signal (no
-        transient to align on), or a time or signal of booleans; the signal, ``ref`` or
-        ``sig`` (or its time), is named.
+        transient to align on: constant, or a steady ramp whose derivative is constant to
+        within the rounding of its values), or a time or signal of booleans; the signal,
+        ``ref`` or ``sig`` (or its time), is named.
     """
     # (inf overflowed int() below, NaN compared False)
     config_positive("estimate_lag", max_lag_s=max_lag_s, rate_hz=rate_hz)
@@ -180,15 +181,19 @@ def estimate_lag(t_ref_s: np.ndarray, ref: np.ndarray, t_sig_s: np.ndarray, sig:
         raise EstimationError(f"signals overlap {max(t1 - t0, 0):.2f} s, too short to estimate "
                               f"a lag of up to {max_lag_s} s")
     grid = t0 + np.arange(n) / rate_hz
-    a = np.gradient(np.interp(grid, tr, r))
-    b = np.gradient(np.interp(grid, ts, s))
+    ra, sb = np.interp(grid, tr, r), np.interp(grid, ts, s)
+    a, b = np.gradient(ra), np.gradient(sb)
     a -= a.mean()
     b -= b.mean()
-    na, nb = np.linalg.norm(a), np.linalg.norm(b)
-    flat = [name for name, norm in (("ref", na), ("sig", nb)) if norm == 0]
+    # flat: a derivative varying by no more than the rounding of the values, not only by 0
+    # (a steady ramp's constant derivative left its 1e-16 noise, correlated to a lag)
+    flat = [name for name, d, v in (("ref", a, ra), ("sig", b, sb))
+            if not np.abs(d).max() > 1e-9 * np.abs(v).max()]
     if flat:
         raise EstimationError(f"{' and '.join(flat)} is constant over the {t1 - t0:.2f} s "
-                              "overlap: no transient to estimate the lag from")
+                              "overlap (or a steady ramp, of constant derivative): no "
+                              "transient to estimate the lag from")
+    na, nb = np.linalg.norm(a), np.linalg.norm(b)
     nfft = 1 << int(np.ceil(np.log2(2 * n)))
     xc = np.fft.irfft(np.fft.rfft(b, nfft) * np.conj(np.fft.rfft(a, nfft)), nfft)
     lags = np.arange(-max_k, max_k + 1)

@@ -10,10 +10,12 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import DataWarning
+from terrain.errors import DataWarning, EstimationError
+from terrain.slip.alignment import LagGate, estimate_lag, gated_lag
 from terrain.slip.baselines import endo_turning_slip, observer_slip
 from terrain.slip.core import skid_steer_side_slip
 from terrain.slip.odometry import dead_reckon
@@ -142,3 +144,37 @@ def test_physics_slip_does_not_depend_on_the_order_of_the_terrain_classes(seed, 
         np.testing.assert_allclose(getattr(b, field), getattr(a, field), atol=1e-9,
                                    err_msg=field)
     np.testing.assert_array_equal(b.saturated, a.saturated)
+
+
+@pytest.mark.parametrize("slope", [0.3, 0.7, 1.0])
+def test_lag_of_a_ramp_is_refused_as_having_no_transient(slope):
+    """A steady ramp (a constant acceleration) has a constant derivative, no transient to
+    align on, like a constant signal (refused); its derivative's rounding (1e-16 relative)
+    was cross-correlated instead: a ramp 0.05 s behind a ramp came out 0.50 s behind at
+    correlation 0.51, applied by a gate without the halves check."""
+    t = np.arange(0.0, 20.0, 0.01)
+    with pytest.raises(EstimationError, match="ref and sig is constant over"):
+        estimate_lag(t, slope * t, t + 0.05, slope * t + 2.0)
+    with pytest.raises(EstimationError, match="no transient"):
+        gated_lag(t, slope * t, t + 0.05, slope * t + 2.0,
+                  gate=LagGate(halves_tolerance_s=None))
+    with pytest.raises(EstimationError, match=r"^sig is constant"):
+        estimate_lag(t, np.sin(t), t, slope * t)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), lag=st.floats(-0.5, 0.5), shift=st.sampled_from([0.0, 1e3]),
+       gain=st.sampled_from([1.0, -3.0, 0.01]))
+def test_lag_swaps_sign_with_the_signals_and_ignores_clock_and_gain(seed, lag, shift, gain):
+    """``sig`` behind ``ref`` by ``L`` is ``ref`` behind ``sig`` by ``-L``; a common clock
+    shift and a common gain (units, sign) change nothing."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 15.0, 0.01)
+    ref = np.convolve(np.cumsum(rng.normal(size=t.size)), np.ones(20) / 20, "same")
+    ts = t + rng.uniform(-0.3, 0.3)
+    sig = np.interp(ts - lag, t, ref)
+    a = estimate_lag(t, ref, ts, sig)
+    assert estimate_lag(ts, sig, t, ref).lag_s == pytest.approx(-a.lag_s, abs=1e-9)
+    b = estimate_lag(t + shift, gain * ref, ts + shift, gain * sig)
+    assert b.lag_s == pytest.approx(a.lag_s, abs=1e-6)
+    assert b.correlation == pytest.approx(a.correlation, abs=1e-6)
