@@ -17,7 +17,7 @@ from hypothesis import strategies as st
 from terrain.errors import DataWarning, EstimationError
 from terrain.slip.alignment import LagGate, estimate_lag, gated_lag
 from terrain.slip.baselines import endo_turning_slip, observer_slip
-from terrain.slip.core import skid_steer_side_slip
+from terrain.slip.core import skid_steer_side_slip, wheel_slip
 from terrain.slip.odometry import dead_reckon
 from terrain.slip.physics import physics_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -178,3 +178,21 @@ def test_lag_swaps_sign_with_the_signals_and_ignores_clock_and_gain(seed, lag, s
     b = estimate_lag(t + shift, gain * ref, ts + shift, gain * sig)
     assert b.lag_s == pytest.approx(a.lag_s, abs=1e-6)
     assert b.correlation == pytest.approx(a.correlation, abs=1e-6)
+
+
+@settings(max_examples=30, deadline=None)
+@given(seed=st.integers(0, 2 ** 31), n=st.integers(1, 30))
+def test_steered_wheel_slip_mirror_and_units(seed, n):
+    """Four steered wheels (seed 001 eqs. 7.3-7.5): the mirrored vehicle (left and right
+    wheels swapped, lateral velocity, yaw rate and steering negated) has the same slips on
+    the swapped wheels; speeds in other units (dead band too) leave them."""
+    rng = np.random.default_rng(seed)
+    pos = np.array([[0.5, 0.4], [0.5, -0.4], [-0.5, 0.4], [-0.5, -0.4]])
+    vx, vy, w = rng.normal(0.5, 0.5, n), rng.normal(0.0, 0.2, n), rng.normal(0.0, 0.5, n)
+    delta, rim = rng.normal(0.0, 0.5, (n, 4)), rng.normal(0.5, 0.5, (n, 4))
+    s = wheel_slip(rim, vx, vy, w, pos, delta)
+    swap = [1, 0, 3, 2]
+    np.testing.assert_allclose(wheel_slip(rim[:, swap], vx, -vy, -w, pos, -delta[:, swap]),
+                               s[:, swap], atol=1e-12)
+    np.testing.assert_allclose(wheel_slip(rim * 1e3, vx * 1e3, vy * 1e3, w * 1e3, pos, delta,
+                                          dead_band_m_s=50.0), s, atol=1e-9)
