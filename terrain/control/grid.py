@@ -74,7 +74,8 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
     Returns
     -------
     best : tuple of float
-        ``(kp, ki)`` of the lowest cost.
+        ``(kp, ki)`` of the lowest cost; among candidates of the same cost the smallest
+        ``kp``, then ``ki`` (the order of the grids does not matter).
     table : pandas.DataFrame
         ``kp, ki, slip_rmse, time_increase, steady_miss, cost`` per candidate.
 
@@ -121,7 +122,9 @@ def tune_gains(vehicle: str, terrains: Sequence[str], kp_grid: Sequence[float],
         if log is not None:
             log(row)
     table = pd.DataFrame(rows)
-    best = table.loc[table["cost"].idxmin()]
+    # ties (every candidate costs the same where the feedback never acts) go to the smallest
+    # gains, whatever order the grids list them in (idxmin took the first listed)
+    best = min(rows, key=lambda r: (r["cost"], r["kp"], r["ki"]))
     return (float(best["kp"]), float(best["ki"])), table
 
 
