@@ -89,6 +89,11 @@ def fallback_basis(table: SlipTable) -> str | None:
     :func:`terrain.control.desired_slip.fallback_entry` takes the traction target of the
     entry with the smallest magnitude; while no terrain is decided the loop assumes that
     terrain's curve for the feed-forward limit and the slip model (the conservative case).
+    Where several entries share that target (the deformable soils at the cap: SNOW,
+    SANDY_LOAM, GRASS and GRAVEL all at 0.30) the one whose curve lets the robot accelerate
+    least at it (:func:`~terrain.control.feedforward.traction_acceleration_limit`), then the
+    first by name: the first listed gave SANDY_LOAM's 1.59 m/s^2 for a table of SANDY_LOAM
+    and GRAVEL, GRAVEL's 0.56 m/s^2 for the same classes the other way round.
 
     Parameters
     ----------
@@ -98,11 +103,20 @@ def fallback_basis(table: SlipTable) -> str | None:
     Returns
     -------
     str or None
-        Terrain name, None for a table without entries.
+        Terrain name, None for a table without entries; the same whatever the order of the
+        table's classes.
     """
     if not table.entries:
         return None
-    return min(table.entries.values(), key=lambda e: abs(e.traction)).terrain
+    least = min(abs(e.traction) for e in table.entries.values())
+
+    def limit(entry) -> float:   # an entry not in the catalogue (a hand-built table) last
+        if entry.terrain not in TERRAIN_NAMES:
+            return math.inf
+        return traction_acceleration_limit(get_terrain(entry.terrain), entry.traction)
+
+    tied = [e for e in table.entries.values() if abs(e.traction) == least]
+    return min(tied, key=lambda e: (limit(e), str(e.terrain))).terrain
 
 
 #: Length of the feed-forward ramp's first step, s: at the loop's first call no interval has

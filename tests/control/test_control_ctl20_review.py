@@ -6,6 +6,10 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 from terrain.control import grid
+from terrain.control.closed_loop import fallback_basis
+from terrain.control.desired_slip import build_slip_table
+from terrain.control.feedforward import traction_acceleration_limit
+from terrain.terramechanics import get_terrain
 
 
 def _fake_loop(cost_of):
@@ -42,3 +46,27 @@ def test_tuned_gains_do_not_depend_on_the_order_of_the_grids(kp, ki, data):
     tied = [k for k, c in costs.items() if c == costs[best]]
     assert best == min(tied)
     assert sorted(itertools.product(kp, ki)) == sorted(costs)
+
+
+# --- the fallback's terrain does not depend on the order of the table's classes ---------------
+
+TIED = ("SNOW", "SANDY_LOAM", "GRASS", "GRAVEL")   # traction target 0.30 each (the cap)
+
+
+@settings(max_examples=30, deadline=None)
+@given(classes=st.permutations(TIED + ("DIRT_ROAD", "PLOUGHED")),
+       size=st.integers(2, 6))
+def test_the_fallback_basis_does_not_depend_on_the_order_of_the_classes(classes, size):
+    """A table of SANDY_LOAM and GRAVEL (both at the 0.30 cap) assumed SANDY_LOAM's curve
+    while undecided (feed-forward a_max 1.59 m/s^2), GRAVEL and SANDY_LOAM GRAVEL's
+    (0.56 m/s^2): the first listed. The conservative case is the terrain of the fallback's
+    traction target that lets the robot accelerate least, in any order."""
+    chosen = list(classes[:size])
+    basis = fallback_basis(build_slip_table(chosen))
+    assert basis == fallback_basis(build_slip_table(chosen[::-1]))
+    table = build_slip_table(chosen)
+    assert table.entries[basis].traction == table.fallback.traction
+    tied = [e for e in table.entries.values() if e.traction == table.fallback.traction]
+    limits = {e.terrain: traction_acceleration_limit(get_terrain(e.terrain), e.traction)
+              for e in tied}
+    assert limits[basis] == min(limits.values())
