@@ -218,7 +218,10 @@ class AgriMaRoVisualOdometryEKF:
             accel_std_m_s2=accel_std_m_s2))
         m = self.model
         self.ekf = ExtendedKalmanFilter(m.x0, m.P0, m.f, m.F, m.h, m.H, m.Q, m.R_diag)
-        self.t = 0.0
+        # the filter's time: that of its first sample (None before), not 0 s: a log stamped
+        # from 1000 s began with one prediction over 1000 s, one stamped before 0 s was never
+        # predicted until its clock passed 0
+        self.t: float | None = None
         self.t_cam = -math.inf
         self.omega = np.zeros(3)
         # the model's rows of each stream, less the yaw angles (yaw_imu, yaw_c) the loop
@@ -244,7 +247,9 @@ class AgriMaRoVisualOdometryEKF:
                 if name != "currents":   # (the currents are not read)
                     self.nonfinite_count += 1
                 continue
-            if t > self.t:
+            if self.t is None:
+                self.t = t
+            elif t > self.t:
                 self.ekf.predict(t - self.t)
                 self.t = t
             if name == "wheels" and np.all(np.isfinite(z)):   # a NaN one is skipped below
