@@ -14,7 +14,8 @@ classifier's posterior ``q`` stands for the emission likelihood up to the class 
     p_k      ∝ prior_k * q_k ** evidence_power
 
 The decided class then changes only when another class's filtered probability exceeds the
-current one's by ``hysteresis`` (0 disables it).
+current one's by ``hysteresis`` (0 disables it), and only on a window taken as evidence (a
+prediction step keeps the order of the probabilities, so it never opens that margin).
 
 Optional switch reset (``reset_confidence``, off by default): when ``reset_windows``
 consecutive valid windows all name the same class, other than the decided one, each with
@@ -215,7 +216,7 @@ class ForwardFilter:
         -------
         decided : int or None
             Index of the decided class (``None`` before the first window taken as
-            evidence).
+            evidence); a window that is no evidence keeps it.
         p : numpy.ndarray
             ``(K,)`` filtered probabilities (a copy); without the filter, ``q``, or the
             uniform distribution when ``q`` is ``None``.
@@ -247,8 +248,12 @@ class ForwardFilter:
                 else np.asarray(q, dtype=float).copy()
         else:
             self.p = forward_step(self.p, q, self.p_switch, self.config.evidence_power)
-        if q is None and self.current is None:
-            return None, self.p.copy()
+        if q is None:
+            # no evidence keeps the decided class: the prediction step only shrinks the
+            # differences of the probabilities (by lam >= 0, predict_steps), so it cannot
+            # open a margin; on floats near the uniform distribution its rounding put another
+            # class 1 ulp ahead, and n update(None) decided otherwise than skip(n)
+            return self.current, self.p.copy()
         best = int(np.argmax(self.p))
         if self.current is None or \
                 self.p[best] > self.p[self.current] + self.config.hysteresis:

@@ -3,8 +3,9 @@
 The served model answers the same for the same samples in the long format, the wide format,
 any column order and any interleaving of the long rows that keeps each stream in time order;
 ``terrain stream``'s in-process replay (one by one) decides as the served model (chunks of
-32) on the same samples; without hysteresis the forward filter decides the argmax. A shift
-of every clock by the same time is a strict xfail (left alone, see its reason).
+32) on the same samples; the forward filter's closed-form skip is the prediction steps one by
+one, decided class included, and without hysteresis it decides the argmax. A shift of every
+clock by the same time is a strict xfail (left alone, see its reason).
 """
 
 from __future__ import annotations
@@ -12,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import example, given, settings, strategies as st
 
 from terrain.control import DesiredSlipConfig
 from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS, Run
@@ -121,6 +123,38 @@ def test_a_shift_of_every_clock_changes_no_probability(served_all, unseen_long, 
     pd.testing.assert_frame_equal(shifted[rest], answer[rest])
 
 
+_q = st.lists(st.floats(0, 1), min_size=3, max_size=3).map(np.array)
+
+
+@settings(max_examples=60, deadline=None)
+@given(qs=st.lists(_q, min_size=1, max_size=8), n=st.integers(0, 40),
+       dwell=st.floats(0.3, 100.0), hyst=st.sampled_from([0.0, 0.05, 0.3]))
+@example(qs=[np.array([0.0, 0.0, 1.0])], n=9, dwell=0.7578125, hyst=0.0)
+def test_skip_is_n_prediction_steps_and_no_hysteresis_decides_the_argmax(qs, n, dwell, hyst):
+    """After any windows, ``skip(n)`` leaves the filter where ``n`` calls ``update(None)``
+    leave it (probabilities to 1e-12, the same decided class); the probabilities stay a
+    distribution; with ``hysteresis=0`` every decided class holds the largest filtered
+    probability. Found: ``q = (0, 0, 1)``, a dwell of 0.76 s and 9 steps without a window
+    put class 0 one ulp ahead of class 2 near the uniform distribution and ``update(None)``
+    switched to it, ``skip(9)`` kept class 2."""
+    config = SmoothingConfig(dwell_s=dwell, hysteresis=hyst)
+    a, b = ForwardFilter(3, 0.5, config), ForwardFilter(3, 0.5, config)
+    for q in qs:
+        for f in (a, b):
+            decided, p = f.update(q)
+            assert np.all(p >= 0) and abs(p.sum() - 1) < 1e-9
+            if hyst == 0:
+                assert p[decided] == p.max()
+    a.skip(n)
+    for _ in range(n):
+        decided, p = b.update(None)
+        if hyst == 0:   # (no evidence keeps the class: its lead may be rounding's 1 ulp)
+            assert p[decided] >= p.max() - 1e-12
+    np.testing.assert_allclose(a.p, b.p, atol=1e-12)
+    assert abs(a.p.sum() - 1) < 1e-9
+    assert a.current == b.current
+
+
 def _invocations(served, frame: pd.DataFrame) -> list:
     """The predictions MLflow's /invocations handler answers for ``frame`` sent as JSON
     ``dataframe_split``."""
@@ -163,3 +197,19 @@ def test_without_hysteresis_a_lead_of_a_thousandth_switches_the_decided_class(dw
         decided, p = f.update(np.array([0.4995, 0.5005]))
         assert decided == int(np.argmax(p))
     assert decided == 1
+
+
+def test_steps_without_a_window_keep_the_decided_class_near_the_uniform_distribution():
+    """The property's falsifying example: 9 prediction steps bring ``(0.01, 0.01, 0.98)`` to
+    the uniform distribution up to rounding, which put class 0 one ulp ahead; without
+    hysteresis ``update(None)`` switched the decided class to it (a terrain without any
+    evidence), where ``skip(9)`` kept class 2."""
+    config = SmoothingConfig(dwell_s=0.7578125, hysteresis=0.0)
+    one_by_one, skipped = ForwardFilter(3, 0.5, config), ForwardFilter(3, 0.5, config)
+    for f in (one_by_one, skipped):
+        assert f.update(np.array([0.0, 0.0, 1.0]))[0] == 2
+    decided = [one_by_one.update(None)[0] for _ in range(9)]
+    skipped.skip(9)
+    assert decided == [2] * 9 and skipped.current == 2
+    # the next window decides again, as usual
+    assert one_by_one.update(np.array([0.5, 0.3, 0.2]))[0] == 0
