@@ -18,6 +18,8 @@ with every float in full (Python's shortest exact form), so it reads back exactl
 from __future__ import annotations
 
 import json
+import math
+import numbers
 import re
 from pathlib import Path
 
@@ -274,13 +276,13 @@ def _refuse_unreadable_time(run: Run) -> None:
     for name, frame in run.streams.items():
         if TIME not in frame:
             continue
-        t = frame[TIME].to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(t))
+        bad = _missing_numbers(frame[TIME])
         if bad.size:
             raise ConfigError(
                 f"stream {name!r} of run {run.run_id}: {bad.size} non-finite timestamp(s), "
-                f"the first {t[bad[0]]!r} at row {bad[0]}; the readers never repair a "
-                f"timestamp and would refuse {file_kind(name)}_XX.csv")
+                f"the first {_cell_text(frame[TIME].iloc[bad[0]])} at row {bad[0]}; the "
+                f"readers never repair a timestamp and would refuse {file_kind(name)}_XX.csv")
+        t = frame[TIME].to_numpy(dtype=float)
         back = np.flatnonzero(np.diff(t) <= 0) + 1
         if back.size:
             row = int(back[0])
@@ -306,20 +308,42 @@ def _refuse_missing_columns(run: Run, frames: dict[str, pd.DataFrame]) -> None:
                 "readers require: they would refuse the file")
 
 
+def _missing_numbers(cells: pd.Series) -> np.ndarray:
+    """Rows of a numeric column that the file would hold as a missing or non-finite cell:
+    NaN, inf, pandas' ``NA`` of a nullable column (``Int64``, ``Float64``: ``float()`` of it
+    was a bare TypeError) and, in an object column without text (a text column is
+    :func:`_refuse_unreadable_text`'s), ``None`` or a non-finite number (written as an empty
+    cell, which the readers interpolate or refuse). Other columns: none."""
+    if cells.dtype.kind in "iuf":
+        values = cells.to_numpy(dtype=float, na_value=np.nan)
+        return np.flatnonzero(~np.isfinite(values))
+    if cells.dtype.kind != "O" or any(isinstance(c, str) for c in cells):
+        return np.zeros(0, dtype=int)
+    return np.flatnonzero([c is None or (isinstance(c, numbers.Real) and not isinstance(c, bool)
+                                         and not math.isfinite(c)) or c is pd.NA
+                           for c in cells])
+
+
+def _cell_text(cell) -> str:
+    """A missing or non-finite cell for a message: a number as Python's float writes it
+    (``nan``, ``inf``), anything else as its ``repr`` (``None``, ``<NA>``)."""
+    return repr(float(cell)) if isinstance(cell, numbers.Real) else repr(cell)
+
+
 def _refuse_non_finite_values(run: Run) -> None:
     """ConfigError for a NaN or infinite sample of a numeric channel: the readers give no
     such value back (an isolated one is interpolated and counted as a repair, one at the
     file's edge or in a burst makes them refuse the file)."""
     for name, frame in run.streams.items():
         for column in frame.columns:
-            if column == TIME or frame[column].dtype.kind not in "iuf":
+            if column == TIME:
                 continue
-            bad = np.flatnonzero(~np.isfinite(frame[column].to_numpy(dtype=float)))
+            bad = _missing_numbers(frame[column])
             if bad.size:
                 raise ConfigError(
                     f"stream {name!r} of run {run.run_id}: column {column!r} holds "
                     f"{bad.size} non-finite value(s), the first "
-                    f"{float(frame[column].iloc[bad[0]])!r} at row {bad[0]}; the readers "
+                    f"{_cell_text(frame[column].iloc[bad[0]])} at row {bad[0]}; the readers "
                     f"never give one back (an isolated one is interpolated, one at the edge "
                     f"or in a burst makes them refuse {file_kind(name)}_XX.csv): write "
                     "finite values")
@@ -375,9 +399,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         text column the readers would refuse or change (a cell with a line break or spaces
         around it, a number, an empty or non-finite cell among text), or timestamps the
         readers refuse (not finite, or not increasing strictly: a duplicated or decreasing
-        one), or a NaN or infinite value of a numeric channel (the readers interpolate an
-        isolated one and refuse one at the file's edge or in a burst); nothing is written
-        then.
+        one), or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
+        column and ``None`` among numbers included: the readers interpolate an isolated one
+        and refuse one at the file's edge or in a burst); nothing is written then.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
