@@ -994,12 +994,14 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
                  for index, files in folder_run_files(root / only).items()}
         if not found:
             raise DataFormatError("no run files (imu_XX.csv, pro_XX.csv) found", root / only)
-    items = sorted(found.items())
+    # sorted by the run id given, as read_shipped sorts them: sorted by (folder, index), a
+    # folder 'SAND' came before 'SAND-WET' though 'SAND-WET/00' < 'SAND/00' ('-' < '/')
+    items = sorted(((f"{dataset}/{folder_text(folder)}/{index}", folder_text(folder), files)
+                    for (folder, index), files in found.items()), key=lambda item: item[0])
     if progress:
         from tqdm.auto import tqdm
         items = tqdm(items, desc="reading runs", unit="run")
-    for (folder, index), files in items:
-        folder = folder_text(folder)
-        runs.append(read_run(files, f"{dataset}/{folder}/{index}", dataset,
-                             folder.upper() if labelled else None, **reader_options))
+    for run_id, folder, files in items:
+        runs.append(read_run(files, run_id, dataset, folder.upper() if labelled else None,
+                             **reader_options))
     return runs
