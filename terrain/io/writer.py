@@ -312,16 +312,17 @@ def _missing_numbers(cells: pd.Series) -> np.ndarray:
     """Rows of a numeric column that the file would hold as a missing or non-finite cell:
     NaN, inf, pandas' ``NA`` of a nullable column (``Int64``, ``Float64``: ``float()`` of it
     was a bare TypeError) and, in an object column without text (a text column is
-    :func:`_refuse_unreadable_text`'s), ``None`` or a non-finite number (written as an empty
-    cell, which the readers interpolate or refuse). Other columns: none."""
+    :func:`_refuse_unreadable_text`'s), a missing cell (``None``, ``NaT``...) or a non-finite
+    number (written as an empty cell or ``inf``, which the readers interpolate or refuse).
+    Other columns: none."""
     if cells.dtype.kind in "iuf":
         values = cells.to_numpy(dtype=float, na_value=np.nan)
         return np.flatnonzero(~np.isfinite(values))
     if cells.dtype.kind != "O" or any(isinstance(c, str) for c in cells):
         return np.zeros(0, dtype=int)
-    return np.flatnonzero([c is None or (isinstance(c, numbers.Real) and not isinstance(c, bool)
-                                         and not math.isfinite(c)) or c is pd.NA
-                           for c in cells])
+    infinite = [isinstance(c, numbers.Real) and not isinstance(c, bool) and math.isinf(c)
+                for c in cells]
+    return np.flatnonzero(cells.isna().to_numpy() | np.array(infinite, dtype=bool))
 
 
 def _cell_text(cell) -> str:

@@ -76,3 +76,14 @@ def test_a_missing_timestamp_of_a_nullable_clock_is_refused(tmp_path):
                                           r"the first .* at row 3"):
         write_run(run, tmp_path, 0)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("cell", [pd.NaT, float("inf"), np.float32("-inf"), np.nan])
+def test_a_missing_or_infinite_cell_among_object_numbers_is_refused(tmp_path, cell):
+    # NaT was written as an empty cell (interpolated back), inf as 'inf' (repaired back)
+    column = pd.Series([float(k) for k in range(N)], dtype=object)
+    column[4] = cell
+    with pytest.raises(ConfigError, match=r"column 'x' holds 1 non-finite value\(s\), the "
+                                          r"first .* at row 4"):
+        write_run(_run(x=column), tmp_path, 0)
+    assert not any(tmp_path.iterdir())
