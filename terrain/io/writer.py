@@ -382,7 +382,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     Raises
     ------
     ConfigError
-        Index not an integer in [0, 99] (a boolean, a float or text included) or already
+        The run has no ``wheels`` stream (the readers refuse a run without
+        ``pro_XX.csv``), index not an integer in [0, 99] (a boolean, a float or text
+        included) or already
         used by a file of the folder (any
         ``*_XX.*``, measured runs have no ``meta_XX.json``), no free index left (default
         ``index``: the folder holds runs 00-99), a stream name the readers
@@ -426,6 +428,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
                           f"stream name is lower-case letters and digits, starting with a "
                           f"letter, and not 'meta' (meta_XX.json holds the run's metadata) "
                           f"nor 'pro' (pro_XX.csv is read back as the stream 'wheels')")
+    wheels = STREAM_NAMES["pro"]
+    if wheels not in run.streams:
+        # its files were written, then refused by every reader (OrphanFileError), which
+        # stopped the reading of every run of the folder
+        raise ConfigError(f"run {run.run_id} has no {wheels!r} stream: the readers read a run "
+                          f"from its pro_XX.csv (streams given: {list(run.streams)})")
     _refuse_missing_columns(run, frames)
     short = next(((n, len(f)) for n, f in run.streams.items() if len(f) < MIN_DATA_ROWS), None)
     if short is not None:   # (a header and one row, or none: a file the readers refuse)

@@ -87,3 +87,16 @@ def test_a_missing_or_infinite_cell_among_object_numbers_is_refused(tmp_path, ce
                                           r"first .* at row 4"):
         write_run(_run(x=column), tmp_path, 0)
     assert not any(tmp_path.iterdir())
+
+
+@pytest.mark.parametrize("streams", [("truth",), ()])
+def test_a_run_without_a_wheel_stream_is_refused_before_writing(tmp_path, streams):
+    # written as imu_XX.csv (or truth_XX.csv, or meta_XX.json alone) without pro_XX.csv: a
+    # run every reader refuses (OrphanFileError), and with it every run of the folder
+    full = _run(x=np.arange(N, dtype=float))
+    run = Run(full.run_id, full.dataset, full.terrain,
+              {k: full.streams[k] for k in streams})
+    with pytest.raises(ConfigError, match=r"run x/SNOW/00 has no 'wheels' stream: the readers "
+                                          r"read a run from its pro_XX.csv"):
+        write_run(run, tmp_path, 0)
+    assert not any(tmp_path.iterdir())
