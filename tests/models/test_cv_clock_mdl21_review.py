@@ -44,3 +44,15 @@ def test_abutting_windows_on_an_epoch_clock_are_kept():
     groups, _ = split_single_run_classes(labels, runs, t0, 3)
     assert purge_block_overlaps(groups, runs, t0, t1).all()
     assert all(u is not None for u in training_units(runs, t0, t1, groups, runs, t0, t1))
+
+
+def test_a_window_sharing_one_sample_with_the_next_block_is_dropped_on_an_epoch_clock():
+    # 200 Hz, 10-sample windows every 9 samples: each shares one sample (5 ms) with the next
+    rate = 200.0
+    for origin in (0.0, 1.7e9 + 0.37):
+        t0, t1 = _cut(origin, rate, 91, 10, 9)
+        labels, runs = np.array(["a"] * len(t0)), np.array(["r"] * len(t0))
+        groups, _ = split_single_run_classes(labels, runs, t0, 2)
+        keep = purge_block_overlaps(groups, runs, t0, t1)
+        last_of_first = np.flatnonzero(groups == groups[0])[-1]
+        assert keep.tolist() == [i != last_of_first for i in range(len(t0))]
