@@ -60,10 +60,13 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
     ------
     ConfigError
         ``n_blocks`` not an integer >= 2 (0 reached NumPy's bare "number sections must be
-        larger than 0"; 1 or ``True`` left the class one block, never trained on when tested).
+        larger than 0"; 1 or ``True`` left the class one block, never trained on when tested);
+        a block's name ``<run>@block<k>`` already the id of another run (the two were made
+        one split unit).
     """
     config_integer("n_blocks", n_blocks, 2)
     groups = groups.astype(object).copy()
+    cut = np.zeros(len(groups), dtype=bool)      # windows of a class cut into blocks
     split = []
     for c in np.unique(labels):
         sel = labels == c
@@ -75,6 +78,14 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
         order = idx[np.argsort(t_start_s[idx], kind="stable")]
         for k, chunk in enumerate(np.array_split(order, n_blocks)):
             groups[chunk] = f"{runs[0]}@block{k}"
+        cut[idx] = True
+    # a block named as another run made the two one split unit: renaming a run to
+    # '<run>@block0' changed the folds without a word
+    clash = sorted(set(groups[cut].tolist()) & set(groups[~cut].tolist()), key=str)
+    if clash:
+        raise ConfigError(f"split_single_run_classes: the time block(s) {clash} of a "
+                          "single-run class are also the id of another run (blocks are named "
+                          "'<run>@block<k>'): rename that run")
     return groups, split
 
 
@@ -149,7 +160,8 @@ def grouped_units(ws, n_blocks: int) -> tuple:
     Raises
     ------
     ConfigError
-        ``n_blocks`` not an integer >= 2 (:func:`split_single_run_classes`).
+        ``n_blocks`` not an integer >= 2, or a block named as another run
+        (:func:`split_single_run_classes`).
     """
     labels = ws.labels.astype(str)
     groups, split = split_single_run_classes(labels, ws.groups, ws.t_start_s, n_blocks)
