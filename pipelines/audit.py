@@ -239,9 +239,8 @@ def _run_with_progress(runs, settings, progress: bool):
     replay_s = time.perf_counter() - t0
     if not frames:  # run_audit raises the error naming every skipped run
         return run_audit(runs, settings)
-    result = run_audit(runs, settings, frames=frames)
-    return replace(result, skipped=skipped,
-                   timings_s={**result.timings_s, "replay_s": replay_s})
+    result = run_audit(runs, settings, frames=frames, skipped=skipped)
+    return replace(result, timings_s={**result.timings_s, "replay_s": replay_s})
 
 
 def _audit(args, runs, settings, source, name, tracked) -> None:

@@ -503,7 +503,8 @@ def _require_unique_ids(run_ids: Sequence[str]) -> None:
 
 
 def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
-              frames: Sequence[AuditFrame] | None = None) -> AuditResult:
+              frames: Sequence[AuditFrame] | None = None,
+              skipped: Mapping[str, str] | None = None) -> AuditResult:
     """Audit the simulator against measured runs (module docstring).
 
     Parameters
@@ -516,6 +517,9 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
     frames : sequence of AuditFrame, optional
         Already prepared frames (skips the replay; ``runs`` then serve the lateral-friction
         sweep only, those with a frame).
+    skipped : mapping of str to str, optional
+        With ``frames``: the runs their preparation skipped, run id -> reason (listed in
+        the result in run-id order, as the skipped runs of a replay here are).
 
     Returns
     -------
@@ -527,11 +531,15 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
         No run could be audited.
     ConfigError
         Two runs (frames given or not) or two given frames share a run id: every per-run
-        table, the skipped list, the sweep and the sample table are keyed by it.
+        table, the skipped list, the sweep and the sample table are keyed by it; or
+        ``skipped`` given without ``frames``.
     """
     timings = {}
     t0 = time.perf_counter()
-    skipped: dict[str, str] = {}
+    if skipped is not None and frames is None:
+        raise ConfigError("run_audit: skipped is the list of the runs the given frames' "
+                          "preparation skipped; give frames with it")
+    skipped = dict(skipped or {})
     # given frames too: the runs serve the sweep, each replayed under its id
     _require_unique_ids([r.run_id for r in runs])
     if frames is None:

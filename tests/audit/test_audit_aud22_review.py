@@ -186,3 +186,21 @@ def test_a_wider_planted_icr_expansion_fits_a_larger_chi(chi):
         assert e.params["chi"] == pytest.approx(c, rel=0.03)
         fits.append(e.params["chi"])
     assert fits[1] > fits[0]
+
+
+def test_the_skipped_runs_given_with_frames_are_listed_in_run_id_order():
+    """`terrain audit`'s progress path prepared the frames run by run and put its own skipped
+    list back in the order the runs came (aud22's left-alone); run_audit now takes it with
+    the frames and lists it in run-id order, as a replay inside run_audit does; skipped
+    without frames is refused."""
+    from terrain.audit import AuditSettings, run_audit
+    from terrain.errors import ConfigError
+
+    s = AuditSettings(selection=SelectionSettings(n_bootstrap=50, n_param_bootstrap=0,
+                                                  min_units=2))
+    given = {"z/run": "too short", "a/run": "no imu"}
+    result = run_audit([], s, frames=_two_terrains(), skipped=given)
+    assert list(result.skipped) == ["a/run", "z/run"]
+    assert dict(result.skipped) == given
+    with pytest.raises(ConfigError, match="give frames with it"):
+        run_audit([], s, skipped=given)
