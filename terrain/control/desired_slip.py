@@ -322,7 +322,9 @@ def fallback_entry(entries: Sequence[DesiredSlip]) -> DesiredSlip:
     Returns
     -------
     DesiredSlip
-        Labelled :data:`FALLBACK_LABEL`.
+        Labelled :data:`FALLBACK_LABEL`; its ``source`` names the entry each target was
+        taken from (among entries with the same magnitude, the first terrain name, whatever
+        the order of ``entries``).
 
     Raises
     ------
@@ -331,7 +333,10 @@ def fallback_entry(entries: Sequence[DesiredSlip]) -> DesiredSlip:
     """
     if not entries:
         raise ConfigError("the desired-slip table has no entries")
-    lowest = (lambda key: min(entries, key=lambda e: abs(getattr(e, key))))  # noqa: E731
+    # ties (many steady targets are 0) go to the first terrain name, so the source text does
+    # not follow the order the classes were listed in
+    lowest = (lambda key: min(entries, key=lambda e: (abs(getattr(e, key)),  # noqa: E731
+                                                      e.terrain)))
     trac, brake, steady = lowest("traction"), lowest("braking"), lowest("steady")
     return DesiredSlip(
         terrain=FALLBACK_LABEL, traction=trac.traction, braking=brake.braking,

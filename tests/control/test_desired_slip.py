@@ -299,3 +299,16 @@ def test_desired_slip_rows_refuse_targets_of_the_wrong_sign():
                                           r"\(0\.1\) for terrain 'X', got 0\.2"):
         DesiredSlip("X", 0.1, -0.15, 0.2, "hand-made", "none")
     assert DesiredSlip("X", 0.1, -0.15, 0.1, "hand-made", "none").steady == 0.1
+
+
+def test_fallback_source_names_the_same_entries_in_any_order_of_the_classes():
+    """Many steady targets tie at 0: fallback_entry's source named the first listed of them,
+    so the same table's classes in another order printed another source (ctl20's
+    left-alone); ties now go to the first terrain name, and the targets never depended on
+    the order."""
+    a = DesiredSlip("A", traction=0.1, braking=-0.2, steady=0.0, source="", method="")
+    b = DesiredSlip("B", traction=0.1, braking=-0.2, steady=0.0, source="", method="")
+    c = DesiredSlip("C", traction=0.3, braking=-0.1, steady=0.0, source="", method="")
+    forward, backward = fallback_entry([a, b, c]), fallback_entry([c, b, a])
+    assert forward == backward
+    assert "traction from A, braking from C, steady from A" in forward.source
