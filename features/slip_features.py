@@ -285,12 +285,19 @@ def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.
 
 def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndarray
                   ) -> np.ndarray:
-    csum = np.vstack([np.zeros((1, values.shape[1])), np.cumsum(values, axis=0)])
+    # the mean of the samples in [t0, t1) of each column; NaN where the window holds none,
+    # or holds a NaN or inf (counted apart: in the running sum one made every later window
+    # NaN)
+    missing = ~np.isfinite(values)
+    zero = np.zeros((1, values.shape[1]))
+    csum = np.vstack([zero, np.cumsum(np.where(missing, 0.0, values), axis=0)])
+    cnan = np.vstack([zero, np.cumsum(missing, axis=0)])
     a = np.searchsorted(t, t0, side="left")
     b = np.searchsorted(t, t1, side="left")
     n = np.maximum(b - a, 1)[:, None]
     out = (csum[b] - csum[a]) / n
     out[b <= a] = np.nan
+    out[(cnan[b] - cnan[a]) > 0] = np.nan
     return out
 
 
@@ -311,7 +318,8 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     -------
     pandas.DataFrame, shape (n_windows, 6)
         ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
-        ``terrain``.
+        ``terrain``; a mean is NaN where its window holds no truth sample or a NaN or inf
+        one (that window only).
 
     Raises
     ------
