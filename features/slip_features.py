@@ -92,13 +92,14 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     ------
     ConfigError
         A channel of :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
-        number of rows.
+        number of rows or two columns of one name (as text: ``1`` and ``'1'``).
     """
     probs = None
     if terrain_probabilities is not None:
         if len(terrain_probabilities) != len(ws):
             raise ConfigError(f"{len(terrain_probabilities)} probability rows for {len(ws)} "
                               f"windows")
+        _refuse_repeated_terrains("slip_features", terrain_probabilities.columns)
         probs = {str(k): terrain_probabilities[k].to_numpy(float)
                  for k in terrain_probabilities.columns}
     names, values = slip_feature_matrix(ws.X, ws.channels, ws.rate_hz, vehicle, probs,
@@ -143,13 +144,14 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     ConfigError
         ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
         missing or named twice, ``rate_hz`` is not a finite number > 0, or a terrain
-        probability is a boolean.
+        probability is a boolean or two terrains have one name as text (``1`` and ``'1'``).
     """
     x = np.asarray(x, dtype=float)
     if x.ndim != 2 or x.shape[0] != len(channels):
         raise ConfigError(f"one window must have shape ({len(channels)}, n_samples), "
                           f"got {x.shape}")
     if terrain_probabilities is not None:     # (True was read as probability 1)
+        _refuse_repeated_terrains("window_feature_vector", terrain_probabilities)
         refuse_booleans(ConfigError, "window_feature_vector", **{
             f"probability of {k}": v for k, v in terrain_probabilities.items()})
     probs = (None if terrain_probabilities is None else
@@ -250,6 +252,16 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     return tuple(cols), values
 
 
+def _refuse_repeated_terrains(owner: str, names) -> None:
+    """Refuse terrain probability names that occur twice as ``p__<name>`` (as text): the
+    columns were merged without a word, the last kept (1 and '1' alike), or split into a
+    shape error naming neither."""
+    twice = duplicated(str(k) for k in names)
+    if twice:
+        raise ConfigError(f"{owner}: terrain(s) {listed(twice)} given twice among the terrain "
+                          "probabilities (one p__<terrain> column each)")
+
+
 def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.DataFrame:
     """Terrain probabilities of a perfect classifier (1 for the label, 0 elsewhere).
 
@@ -267,13 +279,15 @@ def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.
     Raises
     ------
     ConfigError
-        ``labels`` is one text (not a sequence of labels), or a label is not among
-        ``terrains`` (its row would hold no probability, refused later by the physics slip
-        as "sum to 0" naming neither label nor window).
+        ``labels`` is one text (not a sequence of labels), a terrain is named twice in
+        ``terrains`` (one column each), or a label is not among ``terrains`` (its row
+        would hold no probability, refused later by the physics slip as "sum to 0" naming
+        neither label nor window).
     """
     if isinstance(labels, str):
         raise ConfigError(f"one_hot_probabilities needs a sequence of labels, got the text "
                           f"{labels!r}")
+    _refuse_repeated_terrains("one_hot_probabilities", terrains)
     lab = np.asarray(labels, dtype=object)
     outside = ~np.isin(lab, np.asarray(list(terrains), dtype=object))
     if outside.any():

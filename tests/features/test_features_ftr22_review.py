@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from features.slip_features import SLIP_CHANNELS, slip_targets
+from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
+                                    slip_targets, window_feature_vector)
 from features.windows import WindowSet
+from terrain.errors import ConfigError
 from terrain.run import TIME, Run
+from terrain.vehicles import HUSKY
 
 
 def _truth_run(slip_1, dt=0.25):
@@ -52,3 +56,55 @@ def test_a_truth_nan_makes_only_the_windows_holding_it_nan(bad, value, order):
     order = list(order)
     Yp = slip_targets([run], _windows(starts[order]), 0.5)
     np.testing.assert_array_equal(Yp["slip_1"].to_numpy(), Y["slip_1"].to_numpy()[order])
+
+
+def test_one_hot_probabilities_refuse_a_terrain_named_twice():
+    """The table has one column per terrain (``(n, len(terrains))``): a terrain named twice
+    was one column, silently, so the feature table lost a ``p__`` column and its terrain
+    order."""
+    with pytest.raises(ConfigError, match="SNOW"):
+        one_hot_probabilities(["SNOW", "ICE"], ["SNOW", "ICE", "SNOW"])
+    got = one_hot_probabilities(["SNOW", "ICE"], ["ICE", "SNOW"])
+    assert list(got.columns) == ["ICE", "SNOW"] and got.shape == (2, 2)
+
+
+def _slip_window_set(n_windows=2):
+    ws = _windows(np.arange(n_windows) * 2.0)
+    ch = list(SLIP_CHANNELS)
+    ws.X[:, ch.index("cur_l")] = 5.0
+    ws.X[:, ch.index("cur_r")] = 5.5
+    ws.X[:, ch.index("az")] = 9.81
+    return ws
+
+
+@pytest.mark.parametrize("columns", [["SNOW", "SNOW"], [1, "1"]])
+def test_terrain_probability_columns_of_one_name_are_refused_naming_it(columns):
+    """Two probability columns of one name (``p__<name>``) were one column (the second
+    kept, 1 and '1' merged without a word, then 'probabilities sum to 0'), or a shape error
+    naming neither column; the slip features and the one-window vector refuse them alike."""
+    ws = _slip_window_set()
+    probs = pd.DataFrame([[1.0, 0.0], [1.0, 0.0]], columns=columns)
+    with pytest.raises(ConfigError, match=r"twice"):
+        slip_features(ws, HUSKY, probs)
+    if len(set(columns)) == 2:
+        with pytest.raises(ConfigError, match=r"twice"):
+            window_feature_vector(ws.X[0], SLIP_CHANNELS, ws.rate_hz, HUSKY,
+                                  dict(zip(columns, (1.0, 0.0))))
+
+
+def test_slip_feature_rows_equal_the_one_window_vectors_and_follow_a_permutation():
+    """slip_features (a batch) and window_feature_vector (one window) give the same row, and
+    permuting the windows (and their probabilities) permutes the rows."""
+    rng = np.random.default_rng(5)
+    ws = _slip_window_set(4)
+    ws.X = ws.X + 0.01 * rng.standard_normal(ws.X.shape)
+    p = rng.dirichlet([1.0, 1.0], 4)
+    probs = pd.DataFrame(p, columns=["SNOW", "GRAVEL"])
+    table = slip_features(ws, HUSKY, probs)
+    for i in range(4):
+        vec = window_feature_vector(ws.X[i], SLIP_CHANNELS, ws.rate_hz, HUSKY,
+                                    {"SNOW": p[i, 0], "GRAVEL": p[i, 1]})
+        np.testing.assert_array_equal(vec, table.to_numpy()[i])
+    order = [2, 0, 3, 1]
+    perm = slip_features(ws.subset(np.array(order)), HUSKY, probs.iloc[order])
+    np.testing.assert_array_equal(perm.to_numpy(), table.to_numpy()[order])
