@@ -16,7 +16,7 @@ import numpy as np
 from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, ShapeError, config_integer,
-                            config_numbers, refuse_booleans, refuse_unreal)
+                            config_numbers, config_positive, refuse_booleans, refuse_unreal)
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
@@ -494,13 +494,20 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
     current, speed : numpy.ndarray
         ``(n_windows, n_samples)`` in A and m/s.
     min_speed_m_s : float
-        Floor of the mean absolute speed, m/s.
+        Floor of the mean absolute speed, m/s (finite, > 0).
 
     Returns
     -------
     numpy.ndarray
         ``(n_windows,)``, A/(m/s).
+
+    Raises
+    ------
+    ConfigError
+        ``min_speed_m_s`` not a finite number > 0 (0 or a negative floor gave an infinite
+        feature for a standing window, ``True`` was a floor of 1 m/s, NaN a NaN feature).
     """
+    config_positive("per_speed", min_speed_m_s=min_speed_m_s)
     return current.mean(axis=-1) / np.maximum(np.abs(speed).mean(axis=-1), min_speed_m_s)
 
 

@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from features import calculators
 from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
                                     slip_targets, window_feature_vector)
 from features.windows import WindowSet
@@ -108,3 +109,14 @@ def test_slip_feature_rows_equal_the_one_window_vectors_and_follow_a_permutation
     order = [2, 0, 3, 1]
     perm = slip_features(ws.subset(np.array(order)), HUSKY, probs.iloc[order])
     np.testing.assert_array_equal(perm.to_numpy(), table.to_numpy()[order])
+
+
+@pytest.mark.parametrize("floor", [0.0, -0.05, np.nan, np.inf, True, "0.05"])
+def test_per_speed_refuses_a_floor_that_does_not_keep_a_standing_window_finite(floor):
+    """The floor "keeps near-standstill windows finite": 0 or a negative floor gave inf for a
+    standing window, True a floor of 1 m/s, NaN a NaN feature (as WindowFeatures refuses
+    them at fit)."""
+    current, speed = np.ones((2, 5)), np.zeros((2, 5))
+    with pytest.raises(ConfigError, match="min_speed_m_s"):
+        calculators.per_speed(current, speed, floor)
+    assert calculators.per_speed(current, speed, 0.05).tolist() == [20.0, 20.0]
