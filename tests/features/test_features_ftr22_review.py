@@ -120,3 +120,66 @@ def test_per_speed_refuses_a_floor_that_does_not_keep_a_standing_window_finite(f
     with pytest.raises(ConfigError, match="min_speed_m_s"):
         calculators.per_speed(current, speed, floor)
     assert calculators.per_speed(current, speed, 0.05).tolist() == [20.0, 20.0]
+
+
+_NAMES = tuple(calculators.STATISTICS)
+
+
+@st.composite
+def _windows_batch(draw):
+    """(n_windows, n_channels, n_samples) of varying windows (population std well above the
+    1e-6 floor of the shape moments), from a seed."""
+    shape = (draw(st.integers(1, 4)), draw(st.integers(1, 3)), draw(st.integers(2, 40)))
+    rng = np.random.default_rng(draw(st.integers(0, 2 ** 32 - 1)))
+    x = rng.standard_normal(shape) * draw(st.sampled_from([1e-2, 1.0, 30.0]))
+    x += rng.exponential(1.0, shape) * draw(st.sampled_from([0.0, 0.1]))   # skewed
+    x[..., 0] += 1.0     # no constant window
+    return x
+
+
+@settings(max_examples=60, deadline=None)
+@given(_windows_batch(), st.sampled_from([0.25, 2.0, 4.0, -0.5, -1.0, -8.0]),
+       st.data())
+def test_statistics_follow_a_channel_scale_its_sign_and_permutations(x, c, data):
+    """Per channel: a factor c (a power of 2, so scaling is exact) scales mean, min, max by
+    c (min and max trade places for c < 0), std, rms and mean_abs_diff by |c|; skewness
+    takes the sign of c, kurtosis is unchanged. Permuting windows and channels permutes the
+    rows; each named function equals its column of statistics(all names)."""
+    got = calculators.statistics(x, _NAMES)
+    col = {name: got[..., k] for k, name in enumerate(_NAMES)}
+    scaled = calculators.statistics(c * x, _NAMES)
+    sc = {name: scaled[..., k] for k, name in enumerate(_NAMES)}
+    lo, hi = ("min", "max") if c > 0 else ("max", "min")
+    np.testing.assert_array_equal(sc["mean"], c * col["mean"])
+    np.testing.assert_array_equal(sc[lo], c * col["min"])
+    np.testing.assert_array_equal(sc[hi], c * col["max"])
+    for name in ("std", "rms", "mean_abs_diff"):
+        np.testing.assert_allclose(sc[name], abs(c) * col[name], rtol=1e-13, atol=0)
+    np.testing.assert_allclose(sc["skewness"], np.sign(c) * col["skewness"], rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(sc["kurtosis"], col["kurtosis"], rtol=1e-9, atol=1e-12)
+    wins = data.draw(st.permutations(range(x.shape[0])))
+    chans = data.draw(st.permutations(range(x.shape[1])))
+    perm = calculators.statistics(x[wins][:, chans], _NAMES)
+    np.testing.assert_array_equal(perm, got[wins][:, chans])
+    for k, (name, fn) in enumerate(calculators.STATISTICS.items()):
+        np.testing.assert_array_equal(fn(x), got[..., k])
+
+
+@settings(max_examples=40, deadline=None)
+@given(_windows_batch(), st.sampled_from([-3.0, 0.5, 9.81, 100.0]))
+def test_an_offset_moves_the_mean_min_and_max_only(x, b):
+    """An offset b (a gravity component, a current bias) adds b to mean, min and max and
+    leaves std, skewness, kurtosis and mean_abs_diff as they were (to round-off)."""
+    got = calculators.statistics(x, _NAMES)
+    moved = calculators.statistics(x + b, _NAMES)
+    scale = np.abs(x).max() + abs(b)
+    for k, name in enumerate(_NAMES):
+        if name in ("mean", "min", "max"):
+            np.testing.assert_allclose(moved[..., k], got[..., k] + b, rtol=0,
+                                       atol=1e-12 * scale)
+        elif name in ("std", "mean_abs_diff"):
+            np.testing.assert_allclose(moved[..., k], got[..., k], rtol=1e-9,
+                                       atol=1e-12 * scale)
+        elif name != "rms":
+            np.testing.assert_allclose(moved[..., k], got[..., k], rtol=1e-6, atol=1e-6)
