@@ -30,8 +30,8 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
-                            refuse_booleans)
+from terrain.errors import (ConfigError, DataFormatError, config_positive, duplicated,
+                            first_items, listed, refuse_booleans, refuse_unreal)
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id
 from terrain.sim.sensors import SensorSettings
@@ -145,8 +145,11 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
         ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
         missing or named twice, ``rate_hz`` is not a finite number > 0, or a terrain
         probability is a boolean or two terrains have one name as text (``1`` and ``'1'``).
+    DataFormatError
+        ``x`` holds booleans (a mask) or does not convert to real numbers (text), as
+        :func:`slip_feature_matrix` judges the windows.
     """
-    x = np.asarray(x, dtype=float)
+    x = np.asarray(x)     # (as float, a mask was samples of 0 and 1: the batch judges it)
     if x.ndim != 2 or x.shape[0] != len(channels):
         raise ConfigError(f"one window must have shape ({len(channels)}, n_samples), "
                           f"got {x.shape}")
@@ -195,6 +198,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         A channel of :data:`SLIP_CHANNELS` is missing, a channel is named twice, ``x`` is
         not 3-D with one row per channel and at least 2 samples, ``rate_hz`` is not a
         finite number > 0, or a terrain probability holds booleans.
+    DataFormatError
+        ``x`` holds booleans (a mask) or does not convert to real numbers (text).
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
@@ -202,10 +207,18 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     twice = duplicated(channels)
     if twice:      # (the channels are read by position: the last of the two was read)
         raise ConfigError(f"slip features: channels {twice} named twice")
-    x = np.asarray(x)     # (nested lists failed on x.ndim; the statistics judge the dtype)
+    x = np.asarray(x)     # (nested lists failed on x.ndim)
     if x.ndim != 3 or x.shape[1] != len(channels):     # channels are read by position
         raise ConfigError(f"windows must have shape (n_windows, {len(channels)}, n_samples), "
                           f"got {x.shape}")
+    # as the statistics read them (text was read by them, then failed in the slope's NumPy
+    # product naming nothing; a mask passed the one-window path as samples of 0 and 1)
+    refuse_booleans(DataFormatError, "slip features", x=x)
+    try:
+        x = np.asarray(x, dtype=float)
+    except (TypeError, ValueError):
+        refuse_unreal("slip features", x=x)
+        raise
     if x.shape[2] < 2:      # (0/0 gave a NaN slope and pitch with a RuntimeWarning)
         raise ConfigError(f"windows must hold n_samples >= 2 for the speed slope, got "
                           f"{x.shape}")

@@ -9,10 +9,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from features import calculators
-from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities, slip_features,
-                                    slip_targets, window_feature_vector)
+from features.slip_features import (SLIP_CHANNELS, one_hot_probabilities,
+                                    slip_feature_matrix, slip_features, slip_targets,
+                                    window_feature_vector)
 from features.windows import WindowSet
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError
 from terrain.run import TIME, Run
 from terrain.vehicles import HUSKY
 
@@ -183,3 +184,29 @@ def test_an_offset_moves_the_mean_min_and_max_only(x, b):
                                        atol=1e-12 * scale)
         elif name != "rms":
             np.testing.assert_allclose(moved[..., k], got[..., k], rtol=1e-6, atol=1e-6)
+
+
+@pytest.mark.parametrize("kind", ["bool", "text"])
+def test_the_one_window_vector_and_the_batch_judge_the_samples_alike(kind):
+    """window_feature_vector read a boolean mask as samples of 0 and 1 (the batch path
+    refuses it) and parsed text; text made the batch path fail inside NumPy (its slope),
+    naming nothing. Both now refuse a mask (DataFormatError naming x) and give one row for
+    text NumPy reads as numbers, as the statistics do."""
+    ws = _slip_window_set(1)
+    x = ws.X[0]
+    if kind == "bool":
+        mask = x > 0.1
+        with pytest.raises(DataFormatError, match="booleans"):
+            window_feature_vector(mask, SLIP_CHANNELS, ws.rate_hz, HUSKY)
+        with pytest.raises(DataFormatError, match="booleans"):
+            slip_feature_matrix(mask[None], SLIP_CHANNELS, ws.rate_hz, HUSKY)
+    else:
+        text = x.astype(str)
+        want = slip_feature_matrix(x[None], SLIP_CHANNELS, ws.rate_hz, HUSKY)[1][0]
+        np.testing.assert_array_equal(
+            slip_feature_matrix(text[None], SLIP_CHANNELS, ws.rate_hz, HUSKY)[1][0], want)
+        np.testing.assert_array_equal(
+            window_feature_vector(text, SLIP_CHANNELS, ws.rate_hz, HUSKY), want)
+        with pytest.raises(DataFormatError, match="x must hold real numbers"):
+            slip_feature_matrix(np.full((1, len(SLIP_CHANNELS), 5), "fast"), SLIP_CHANNELS,
+                                ws.rate_hz, HUSKY)
