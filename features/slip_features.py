@@ -93,6 +93,9 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     ConfigError
         A channel of :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
         number of rows or two columns of one name (as text: ``1`` and ``'1'``).
+    DataFormatError
+        ``ws.X`` holds booleans or does not convert to real numbers
+        (:func:`slip_feature_matrix`).
     """
     probs = None
     if terrain_probabilities is not None:
