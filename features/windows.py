@@ -21,8 +21,8 @@ import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
-from terrain.errors import (ConfigError, ShapeError, config_flags, config_numbers,
-                            config_positive, duplicated, first_items, listed)
+from terrain.errors import (ConfigError, MissingColumnError, ShapeError, config_flags,
+                            config_numbers, config_positive, duplicated, first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, get_vehicle
@@ -610,7 +610,15 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     ------
     ConfigError
         ``config.steady_only`` and the frame has no ``vel_l`` or ``vel_r`` column.
+    MissingColumnError
+        The frame has no ``t_s`` column or lacks one of ``channels`` (pandas' bare KeyError
+        named the whole selection), naming the first missing one.
     """
+    absent = [c for c in (TIME, *channels) if c not in frame.columns]
+    if absent:
+        raise MissingColumnError(f"window_frame: the aligned frame has no column(s) "
+                                 f"{listed(absent)}; it has {listed(list(frame.columns))}",
+                                 column=absent[0])
     missing = sorted({"vel_l", "vel_r"} - set(frame.columns)) if config.steady_only else []
     if missing:     # (checked before a frame shorter than one window returns)
         raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "

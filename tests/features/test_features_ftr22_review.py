@@ -210,3 +210,22 @@ def test_the_one_window_vector_and_the_batch_judge_the_samples_alike(kind):
         with pytest.raises(DataFormatError, match="x must hold real numbers"):
             slip_feature_matrix(np.full((1, len(SLIP_CHANNELS), 5), "fast"), SLIP_CHANNELS,
                                 ws.rate_hz, HUSKY)
+
+
+@pytest.mark.parametrize("drop", ["cur_r", TIME])
+def test_window_frame_names_a_missing_column(drop):
+    """window_frame on a frame lacking a channel asked for (or its clock) raised pandas' bare
+    KeyError naming the whole selection (ftr22's left-alone); a MissingColumnError now names
+    the first missing column and what the frame has."""
+    from features.windows import WindowConfig, window_frame
+    from terrain.errors import MissingColumnError
+
+    frame = pd.DataFrame({TIME: np.arange(200) / 50.0, "vel_l": 0.5, "vel_r": 0.5,
+                          "cur_l": 2.0, "cur_r": 2.0}).drop(columns=[drop])
+    with pytest.raises(MissingColumnError, match=f"no column\\(s\\) \\['{drop}'\\]") as err:
+        window_frame(frame, ["vel_l", "cur_r"], WindowConfig(window_s=1.0, hop_s=1.0))
+    assert err.value.column == drop
+    kept = frame if drop == TIME else frame.assign(cur_r=2.0)
+    if drop != TIME:
+        X, *_ = window_frame(kept, ["vel_l", "cur_r"], WindowConfig(window_s=1.0, hop_s=1.0))
+        assert X.shape == (4, 2, 50)
