@@ -248,11 +248,16 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     from terrain.audit import make_figures
 
     result = _run_with_progress(runs, settings, not getattr(args, "no_progress", False))
-    inputs = input_report(runs)
+    # the runs the audit skipped are skipped in the input report too (it said every run
+    # used above "audited N runs, skipped M"), and only the replayed runs are described below
+    inputs = input_report(runs, {"skipped_runs": list(result.skipped),
+                                 "reasons": dict(result.skipped)})
     print(inputs.text())
+    audited = {f.run_id for f in result.frames}
+    replayed = [r for r in runs if r.run_id in audited]
     report = to_dict(result, source)
     report["physics"] = settings.replay.physics
-    jitter = {r.run_id: round(a, 3) for r in runs
+    jitter = {r.run_id: round(a, 3) for r in replayed
               if (a := cruise_wheel_acceleration_rms(r)) > JITTER_ACCEL_M_S2}
     report["jittery_wheel_records"] = {
         "threshold_m_s2": JITTER_ACCEL_M_S2, "input_cutoff_hz": settings.replay.input_cutoff_hz,
@@ -266,7 +271,7 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
               "smooths it (docs/physics_v2.md)")
     cutoff = settings.replay.input_cutoff_hz
     if cutoff is not None:
-        rates = [r.rate_hz("wheels") for r in runs
+        rates = [r.rate_hz("wheels") for r in replayed
                  if "wheels" in r.streams and len(r.streams["wheels"]) > 1]
         clipped = [(rate, used) for rate in rates
                    if (used := lowpass_cutoff_hz(rate, cutoff)) < cutoff]
