@@ -59,7 +59,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("--vehicles", nargs="+", default=["agrimaro", "husky"])
+    # any case, as terrain simulate and the vehicle catalogue read it
+    parser.add_argument("--vehicles", nargs="+", type=str.lower,
+                        default=["agrimaro", "husky"])
     parser.add_argument("--terrains", nargs="+",
                         default=["TILES", "GRASS", "SANDY_LOAM", "SNOW", "ICE"])
     parser.add_argument("--scenarios", nargs="+", choices=SCENARIOS, default=["straight_accel"])

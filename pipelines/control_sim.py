@@ -64,7 +64,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser : argparse.ArgumentParser
         Subparser to fill.
     """
-    parser.add_argument("--vehicle", required=True, choices=VEHICLES)
+    # any case, as terrain simulate and the vehicle catalogue read it
+    parser.add_argument("--vehicle", required=True, type=str.lower, choices=VEHICLES)
     parser.add_argument("--terrain", required=True, help="catalogued terrain class")
     parser.add_argument("--scenario", required=True, choices=SCENARIOS)
     parser.add_argument("--controller", required=True, choices=("off", "traction"))

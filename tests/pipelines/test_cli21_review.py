@@ -41,3 +41,44 @@ def test_audit_input_report_counts_the_runs_the_audit_skipped(workdir, capsys):
     assert "runs/GRASS/00" in out.split("input:")[1].split("audited")[0]
     assert report["jittery_wheel_records"]["runs"] == {}
     assert "jittery wheel-speed record" not in out
+
+
+@pytest.mark.parametrize("argv", [
+    ["control-sim", "--vehicle", "{v}", "--terrain", "ICE", "--scenario", "straight_accel",
+     "--controller", "off", "--json", "c.json"],
+    ["control-grid", "--vehicles", "{v}", "--terrains", "ICE", "--out", "g"],
+])
+def test_the_vehicle_is_read_in_any_case_as_simulate_reads_it(argv, monkeypatch, workdir):
+    # `terrain simulate --vehicle HUSKY` (and every terrain option) reads names in any
+    # case; control-sim refused "Husky" (invalid choice) and control-grid refused it ("the
+    # traction control loop supports vehicles agrimaro, husky, got 'Husky'")
+    import pipelines.control_grid
+    import pipelines.control_sim
+
+    seen = []
+
+    def stop(args):
+        seen.append(args)
+        return 0
+
+    monkeypatch.setattr(pipelines.control_sim, "main", stop)
+    monkeypatch.setattr(pipelines.control_grid, "main", stop)
+    for name in ("husky", "Husky", "HUSKY"):
+        assert main([a.format(v=name) for a in argv]) == 0
+    assert {str(getattr(a, "vehicle", None) or a.vehicles) for a in seen} in (
+        {"husky"}, {"['husky']"})
+
+
+def test_control_grid_checks_a_vehicle_in_any_case():
+    # check_grid takes the lower-cased vehicle (a repeat in another case is a repeat)
+    from terrain.cli import build_parser
+
+    parser = build_parser()
+    args = parser.parse_args(["control-grid", "--vehicles", "HUSKY", "--terrains", "ICE",
+                              "--out", "g", "--husky-estimator", "observer"])
+    assert args.vehicles == ["husky"]
+    import pipelines.control_grid
+    pipelines.control_grid.check_grid(args)      # the Husky's estimator: a Husky is there
+    args = parser.parse_args(["control-grid", "--vehicles", "husky", "Husky", "--out", "g"])
+    with pytest.raises(Exception, match=r"vehicles: \['husky'\] given more than once"):
+        pipelines.control_grid.check_grid(args)
