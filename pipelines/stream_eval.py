@@ -89,6 +89,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                              "s (default 0: the clock runs on across a switch, as on a robot "
                              "driving onto the next terrain; before, 0.1 s, which the service "
                              "flags as a gap on the 100 Hz IMU)")
+    parser.add_argument("--no-progress", action="store_true",
+                        help="hide progress bars (the held-out streams' bar over the folds)")
 
 
 def resolve_options(args: argparse.Namespace) -> None:
@@ -227,7 +229,7 @@ def main(args: argparse.Namespace) -> int:
                 frames = [held_out_streams(runs, RECIPES[kind], seed, SMOOTHINGS,
                                            n_splits=args.folds,
                                            switch_gap_s=args.switch_gap_s,
-                                           progress=True)
+                                           progress=not args.no_progress)
                           .assign(seed=seed) for seed in args.seeds]
                 res = pd.concat(frames, ignore_index=True)
                 run.log_table(encode_stream_scores(res), f"held_out_streams_{kind}.csv")

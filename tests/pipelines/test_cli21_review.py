@@ -82,3 +82,27 @@ def test_control_grid_checks_a_vehicle_in_any_case():
     args = parser.parse_args(["control-grid", "--vehicles", "husky", "Husky", "--out", "g"])
     with pytest.raises(Exception, match=r"vehicles: \['husky'\] given more than once"):
         pipelines.control_grid.check_grid(args)
+
+
+def test_stream_eval_hides_its_progress_bars_with_no_progress(workdir, monkeypatch, capsys):
+    # cv, train, predict, audit and compare take --no-progress; stream-eval drew its
+    # held-out streams' progress bar over the folds whatever one asked (a usage error)
+    import pandas as pd
+
+    import pipelines.stream_eval
+    from cli_helpers import RecordingRun
+
+    given = []
+
+    def fake(runs, recipe, seed, smoothings, progress=False, **kwargs):
+        given.append(progress)
+        return pd.DataFrame(columns=["fold", "smoothing"])
+
+    monkeypatch.setattr(pipelines.stream_eval, "held_out_streams", fake)
+    monkeypatch.setattr(pipelines.stream_eval, "tracked_run", RecordingRun())
+    monkeypatch.setattr(pipelines.stream_eval, "encode_stream_scores", lambda frame: frame)
+    for flag, shown in (([], True), (["--no-progress"], False)):
+        given.clear()
+        assert main(["stream-eval", "--part", "streams", "--kinds", "wheels", "--seeds", "0",
+                     *flag]) == 0
+        assert given == [shown]
