@@ -260,7 +260,8 @@ class WindowConfig:
         A length or rate that is not a real number (text, a bool, a list) or not a finite
         positive number, ``partition_s`` shorter than ``window_s``, a window of fewer than
         4 or more than :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample
-        (window starts and lengths are rounded to whole samples), or a steady-motion
+        (window starts and lengths are rounded to whole samples) or holds more samples than
+        a float counts (``hop_s * rate_hz`` infinite), or a steady-motion
         threshold that is not a finite number >= 0 (NaN made every window unsteady), or a
         ``steady_only`` that is not True or False (text, a number, None).
     """
@@ -283,6 +284,10 @@ class WindowConfig:
                               f"{self.window_s} s and {self.rate_hz} Hz")
         if self.hop_s is not None and not 0 < self.hop_s < math.inf:
             raise ConfigError(f"hop_s must be a finite number > 0 s, got {self.hop_s}")
+        if self.hop_s is not None and not math.isfinite(self.hop_s * self.rate_hz):
+            # round() of the overflowed count raised a bare OverflowError (1e308 s at 100 Hz)
+            raise ConfigError(f"hop_s {self.hop_s:g} s at {self.rate_hz:g} Hz is more samples "
+                              "than a count can hold (give a shorter hop)")
         if self.hop_s is not None and round(self.hop_s * self.rate_hz) < 1:
             # it was cut at one sample while the run logged the hop asked for
             raise ConfigError(f"hop_s {self.hop_s:g} s is under one sample at {self.rate_hz:g} "

@@ -106,3 +106,19 @@ def test_stream_eval_hides_its_progress_bars_with_no_progress(workdir, monkeypat
         assert main(["stream-eval", "--part", "streams", "--kinds", "wheels", "--seeds", "0",
                      *flag]) == 0
         assert given == [shown]
+
+
+@pytest.mark.parametrize("argv", [
+    ["cv", "--hop-s", "1e308"],
+    ["cv", "--train-hop-s", "1e308"],
+    ["train", "--dataset", "vulpi", "--model", "svm", "--train-hop-s", "1e308"],
+    ["compare", "--models", "svm", "--train-hop-s", "1e308"],
+    ["stream-eval", "--part", "wheel-cv", "--hop-s", "1e308"],
+])
+def test_a_finite_hop_too_long_to_count_in_samples_is_an_input_error(argv, workdir, capsys):
+    # a finite hop > 0 (what the option's type takes) whose sample count overflows (1e308 s
+    # at 100 Hz) ended in "internal error: OverflowError: cannot convert float infinity to
+    # integer" (exit 1), where 1e300 was taken; --window-s 1e308 is an input error
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "hop" in err and len(err.splitlines()) == 1, err
