@@ -220,7 +220,9 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float, padtype: str =
     ------
     ConfigError
         ``rate_hz`` or ``cutoff_hz`` not a finite number > 0 (a boolean included; scipy
-        answered "Digital filter critical frequencies must be 0 < Wn < fs/2").
+        answered "Digital filter critical frequencies must be 0 < Wn < fs/2"), or a
+        cut-off so far below the rate that the filter cannot be computed (scipy's
+        "Singular matrix", about 1e-9 of the rate).
     """
     config_positive("lowpass", rate_hz=rate_hz, cutoff_hz=cutoff_hz)
     values = np.asarray(values, dtype=float)
@@ -228,7 +230,12 @@ def lowpass(values: np.ndarray, rate_hz: float, cutoff_hz: float, padtype: str =
     sos = signal.butter(LOWPASS_ORDER, fc, fs=float(rate_hz), output="sos")
     if values.shape[0] < LOWPASS_MIN_SAMPLES:
         return values
-    return signal.sosfiltfilt(sos, values, axis=0, padtype=padtype)
+    try:
+        return signal.sosfiltfilt(sos, values, axis=0, padtype=padtype)
+    except np.linalg.LinAlgError:   # scipy's filter start: "Singular matrix" (1e-12 Hz)
+        raise ConfigError(f"lowpass: cut-off {fc:g} Hz is too low for a {float(rate_hz):g} Hz "
+                          "series: its filter cannot be computed (give a higher cut-off)"
+                          ) from None
 
 
 #: rms wheel acceleration while cruising above which a wheel-speed record is called jittery,

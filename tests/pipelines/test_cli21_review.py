@@ -122,3 +122,15 @@ def test_a_finite_hop_too_long_to_count_in_samples_is_an_input_error(argv, workd
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert "internal error" not in err and "hop" in err and len(err.splitlines()) == 1, err
+
+
+def test_audit_refuses_a_low_pass_too_low_to_compute_as_an_input_error(workdir, capsys):
+    # --replay-input-lowpass-hz 1e-12 (a finite number > 0, what its type takes) ended in
+    # "internal error: LinAlgError: Singular matrix" (exit 1) from scipy's filter start
+    _simulate("husky", "ICE", 0)
+    capsys.readouterr()
+    assert main(["audit", "runs", "--json", "a.json", "--no-mlflow", "--no-progress",
+                 "--bootstrap", "10", "--param-bootstrap", "0",
+                 "--replay-input-lowpass-hz", "1e-12"]) == 2
+    err = capsys.readouterr().err
+    assert "internal error" not in err and "cut-off" in err and len(err.splitlines()) == 1
