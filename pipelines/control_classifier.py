@@ -290,7 +290,7 @@ def check_classifier_seeds(seeds: Sequence[int], reserved_seeds: Sequence[int]) 
         raise ConfigError(f"classifier seeds {shared} are evaluation or tuning seeds")
 
 
-def check_decision_options(source: str, model_dir: str | None,
+def check_decision_options(source: str, model_dir: str | Path | None,
                            classifier_seeds: Sequence[int] | None,
                            uncontrolled_only: bool) -> None:
     """Refuse, before any run, options the chosen terrain source would ignore.
@@ -299,7 +299,7 @@ def check_decision_options(source: str, model_dir: str | None,
     ----------
     source : {"label", "live-sim", "model"}
         The terrain source (``--terrain-source``).
-    model_dir : str or None
+    model_dir : str or pathlib.Path or None
         ``--model``: used by ``model`` only.
     classifier_seeds : sequence of int or None
         ``--classifier-seeds`` as given (None: not given); used by ``live-sim`` only.
@@ -328,7 +328,7 @@ def check_decision_options(source: str, model_dir: str | None,
 
 
 def decision_source(source: str, vehicle: str, terrains: Sequence[str],
-                    eval_seeds: Sequence[int], model_dir: str | None = None,
+                    eval_seeds: Sequence[int], model_dir: str | Path | None = None,
                     classifier_seeds: Sequence[int] = CLASSIFIER_SEEDS,
                     cache_dir: str | Path = "out/control_classifier",
                     controlled_runs: bool = True, gains: tuple[float, float] | None = None,
@@ -349,7 +349,7 @@ def decision_source(source: str, vehicle: str, terrains: Sequence[str],
         :data:`GRID_TERRAINS`).
     eval_seeds : sequence of int
         Seeds of the closed-loop runs (reserved from the classifier's training).
-    model_dir : str, optional
+    model_dir : str or pathlib.Path, optional
         Model directory for ``source = "model"``.
     classifier_seeds : sequence of int
         Training seeds of ``live-sim``.

@@ -22,8 +22,8 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import (DistinctSeeds, input_path, non_negative_number, option_params,
-                                 output_dir, seed_value, sim_duration_s)
+from pipelines.arguments import (DistinctSeeds, model_folder, non_negative_number,
+                                 option_params, output_dir, seed_value, sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           add_classifier_options, check_classifier_seeds,
                                           check_decision_options, decision_source)
@@ -84,7 +84,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default="label",
                         help="terrain decisions: label (default), live-sim (classifier "
                              "trained on simulated runs) or model (--model)")
-    parser.add_argument("--model", type=input_path, default=None,
+    parser.add_argument("--model", type=model_folder, default=None,
                         help="classifier of --terrain-source model")
     add_classifier_options(parser)
     parser.add_argument("--out", type=output_dir, required=True, help="output folder")

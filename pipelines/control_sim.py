@@ -32,7 +32,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from pipelines.arguments import (input_path, non_negative_number, output_file, seed_value,
+from pipelines.arguments import (model_folder, non_negative_number, output_file, seed_value,
                                  sim_duration_s)
 from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
                                           add_classifier_options, check_decision_options,
@@ -76,7 +76,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="proportional gain, rad/s per unit slip (default: tuned)")
     parser.add_argument("--ki", type=non_negative_number, default=None,
                         help="integral gain, rad/s per unit slip and s (default: tuned)")
-    parser.add_argument("--model", type=input_path, default=None,
+    parser.add_argument("--model", type=model_folder, default=None,
                         help="terrain classifier saved by `terrain train --model-out DIR`")
     parser.add_argument("--terrain-source", choices=TERRAIN_SOURCES, default=None,
                         help="terrain decisions: live-sim (classifier trained on simulated "

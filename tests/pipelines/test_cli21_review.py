@@ -134,3 +134,23 @@ def test_audit_refuses_a_low_pass_too_low_to_compute_as_an_input_error(workdir, 
                  "--replay-input-lowpass-hz", "1e-12"]) == 2
     err = capsys.readouterr().err
     assert "internal error" not in err and "cut-off" in err and len(err.splitlines()) == 1
+
+
+@pytest.mark.parametrize("argv", [
+    ["stream", "runs/ICE", "--out", "o.csv"],
+    ["serve"],
+    ["control-sim", "--vehicle", "husky", "--terrain", "ICE", "--scenario", "straight_accel",
+     "--controller", "off", "--json", "c.json"],
+    ["control-grid", "--terrain-source", "model", "--out", "g"],
+])
+def test_every_command_reading_a_model_directory_refuses_a_model_uri_alike(argv, workdir,
+                                                                           capsys):
+    # control-sim and control-grid load --model as a directory only (load_stream_model), as
+    # stream and serve do, yet took a URI as a path: "model directory
+    # models:/terrain-borealtc/latest does not exist", after the option checks
+    with pytest.raises(SystemExit) as exc:
+        main([*argv, "--model", "models:/terrain-borealtc/latest"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert "argument --model: 'models:/terrain-borealtc/latest' is a URI" in err
+    assert "terrain predict reads models:/" in err
