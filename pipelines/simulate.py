@@ -2,8 +2,9 @@
 
 Writes DIR/<TERRAIN>/imu_XX.csv, pro_XX.csv, truth_XX.csv (+ steer, cam, omega, cur for
 agrimaro) and meta_XX.json. --terrain takes one class or a comma-separated list (the terrain
-then changes every --segment-m metres; the folder is MIXED). Effects: NAME=VALUE with NAME in
-icr_expansion, gyro_bias, wheel_lag, turning_resistance, current_offset, grade_resistance.
+then changes every --segment-m metres; the folder is MIXED when it names several). Effects:
+NAME=VALUE with NAME in icr_expansion, gyro_bias, wheel_lag, turning_resistance,
+current_offset, grade_resistance.
 """
 
 from __future__ import annotations

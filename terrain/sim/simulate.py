@@ -333,10 +333,10 @@ class SimConfig:
 
     @property
     def run_terrain(self) -> str:
-        """The run's terrain label: the terrain, or ``MIXED`` for a list of several (the
-        ``terrain`` of its metadata and the folder :func:`terrain.io.writer.write_run` puts
-        it in)."""
-        return self.terrains[0] if len(self.terrains) == 1 else "MIXED"
+        """The run's terrain label: the terrain, or ``MIXED`` for a list of several distinct
+        ones (the ``terrain`` of its metadata and the folder
+        :func:`terrain.io.writer.write_run` puts it in; ``ICE, ICE`` is an ICE run)."""
+        return self.terrains[0] if len(set(self.terrains)) == 1 else "MIXED"
 
 
 @dataclass(frozen=True)

@@ -154,3 +154,19 @@ def test_every_command_reading_a_model_directory_refuses_a_model_uri_alike(argv,
     err = capsys.readouterr().err
     assert "argument --model: 'models:/terrain-borealtc/latest' is a URI" in err
     assert "terrain predict reads models:/" in err
+
+
+def test_a_terrain_list_of_one_terrain_is_that_terrain_s_run(workdir, capsys):
+    # --terrain ICE,ice said "one terrain (ICE) along the whole path" but wrote the run to
+    # MIXED/ with the label MIXED (a class no model or catalogue knows), where --terrain ICE
+    # writes ICE/: the same run, read back under another label
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE", "--duration-s", "1",
+                 "--out", "one"]) == 0
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "ICE,ice", "--duration-s",
+                 "1", "--out", "two"]) == 0
+    assert sorted(p.name for p in (workdir / "two").iterdir()) == ["ICE"]
+    for name in ("imu_00.csv", "pro_00.csv", "truth_00.csv"):
+        assert (workdir / "one/ICE" / name).read_bytes() == (workdir / "two/ICE" / name
+                                                             ).read_bytes()
+    meta = json.loads((workdir / "two/ICE/meta_00.json").read_text())
+    assert meta["terrain"] == "ICE"

@@ -354,7 +354,8 @@ def test_a_full_terrain_folder_is_refused_before_simulating(tmp_path, monkeypatc
             (folder / f"imu_{i:02d}.csv").touch()
     simulated = []
     monkeypatch.setattr(simulate_command, "simulate", lambda config: simulated.append(config))
-    for terrain, folder in (("ICE", "ICE"), ("ICE,SNOW", "MIXED"), ("ICE,ICE", "MIXED")):
+    # a list of one terrain is that terrain's run (folder ICE), as --terrain ICE
+    for terrain, folder in (("ICE", "ICE"), ("ICE,SNOW", "MIXED"), ("ICE,ICE", "ICE")):
         assert main(["simulate", "--vehicle", "husky", "--terrain", terrain, "--duration-s",
                      "1", "--out", str(tmp_path)]) == 2
         err = capsys.readouterr().err
