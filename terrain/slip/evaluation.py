@@ -18,8 +18,8 @@ from typing import Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (ConfigError, DataWarning, EstimationError, ShapeError,
-                            config_positive)
+from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
+                            ShapeError, config_positive)
 from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -64,6 +64,17 @@ def _window_mask(owner: str, name: str, mask, n: int) -> np.ndarray:
         raise ShapeError(f"{owner}: {name} must be a boolean mask of shape ({n},) (one per "
                          f"window), got {m.dtype} of shape {m.shape}")
     return m
+
+
+def _group_columns(owner: str, meta: pd.DataFrame, by: Sequence[str]) -> list[str]:
+    """The grouping columns ``by`` of ``meta``, refused (MissingColumnError naming ``owner``
+    and the column) when ``meta`` lacks one: a bare pandas KeyError before."""
+    by = list(by)
+    missing = [c for c in by if c not in meta.columns]
+    if missing:
+        raise MissingColumnError(f"{owner}: meta has no grouping column(s) {missing} (its "
+                                 f"columns: {list(meta.columns)})", column=str(missing[0]))
+    return by
 
 
 def _window_sides(owner: str, name: str, values, n: int) -> np.ndarray:
@@ -175,11 +186,16 @@ def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: n
         read as row labels: other windows scored, silently), or ``pred`` or ``truth`` is
         not ``(n, >= 2)`` with ``n`` the windows of ``meta`` (a one-column prediction was
         broadcast onto both sides and scored twice).
+    MissingColumnError
+        ``meta`` lacks a column of ``by`` or ``run_id`` (named).
     """
     mask = _window_mask("error_table", "mask", mask, len(meta))
+    # grouped by run itself: run_id once (twice, the group key was 2-D: a bare ValueError)
+    columns = _group_columns("error_table", meta, dict.fromkeys([*by, "run_id"]))
+    by = list(by)
     err = np.abs(_window_sides("error_table", "pred", pred, len(meta))
                  - _window_sides("error_table", "truth", truth, len(meta)))
-    frame = meta.loc[mask, list(by) + ["run_id"]].copy()
+    frame = meta.loc[mask, columns].copy()
     frame["e1"] = err[mask, 0]
     frame["e2"] = err[mask, 1]
     rows = []
@@ -239,8 +255,11 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
         ``mask`` is not a boolean array of one value per window (window indices were taken
         for a mask: other windows scored, silently), or ``pred``, ``std`` or ``truth`` is
         not ``(n, >= 2)`` with ``n`` the windows of ``meta``.
+    MissingColumnError
+        ``meta`` lacks a column of ``by`` (named).
     """
     mask = _window_mask("std_calibration_table", "mask", mask, len(meta))
+    by = _group_columns("std_calibration_table", meta, by)
     err = np.abs(_window_sides("std_calibration_table", "pred", pred, len(meta))
                  - _window_sides("std_calibration_table", "truth", truth, len(meta)))
     std = _window_sides("std_calibration_table", "std", std, len(meta))

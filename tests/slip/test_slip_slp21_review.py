@@ -1,0 +1,65 @@
+"""Review slp21: round trips and metamorphic relations of slip evaluation and the learned
+slip model (grouping, hand-computed metrics, scale and permutation relations)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from terrain.errors import MissingColumnError
+from terrain.slip.evaluation import error_table, std_calibration_table
+
+FAST = settings(max_examples=40, deadline=None)
+
+
+def _meta(n_runs: int, per_run: int) -> pd.DataFrame:
+    rid = np.repeat([f"r{i}" for i in range(n_runs)], per_run)
+    return pd.DataFrame({"run_id": rid, "terrain": np.where(np.arange(len(rid)) % 2, "A", "B"),
+                         "scenario": "s", "t_start_s": 0.0, "t_end_s": 2.0})
+
+
+def test_error_table_groups_by_run():
+    """Grouped by run (the unit of the splits), one row per run with its own median."""
+    meta = _meta(3, 4)
+    rng = np.random.default_rng(0)
+    pred, truth = rng.normal(size=(12, 2)), np.zeros((12, 2))
+    t = error_table(pred, truth, meta, np.ones(12, bool), by=("run_id",))
+    assert list(t["run_id"]) == ["r0", "r1", "r2"]
+    for i, rid in enumerate(t["run_id"]):
+        e = np.abs(pred[4 * i:4 * i + 4]).ravel()
+        assert t["median_abs_err"][i] == np.median(e)
+    assert (t["n_runs"] == 1).all() and (t["n_windows"] == 4).all()
+
+
+@pytest.mark.parametrize("table", [error_table, std_calibration_table])
+def test_unknown_grouping_column_is_named(table):
+    meta = _meta(2, 2)
+    args = ((np.zeros((4, 2)), np.zeros((4, 2)), np.ones((4, 2)))
+            if table is std_calibration_table else (np.zeros((4, 2)), np.zeros((4, 2))))
+    with pytest.raises(MissingColumnError, match="surface"):
+        table(*args, meta, np.ones(4, bool), by=("surface",))
+
+
+@FAST
+@given(st.integers(1, 4), st.integers(1, 5), st.floats(-50, 50).filter(lambda c: c != 0),
+       st.integers(0, 2 ** 31 - 1))
+def test_error_table_hand_computation_and_scale(n_runs, per_run, c, seed):
+    """Median and p90 equal a hand computation over both sides; a perfect predictor scores
+    0; scaling prediction and truth by c scales the errors by |c|."""
+    meta = _meta(n_runs, per_run)
+    n = len(meta)
+    rng = np.random.default_rng(seed)
+    pred, truth = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+    mask = np.ones(n, bool)
+    t = error_table(pred, truth, meta, mask, by=("scenario",))
+    e = np.abs(pred - truth).ravel()
+    assert t["median_abs_err"][0] == pytest.approx(np.median(e), abs=1e-12)
+    assert t["p90_abs_err"][0] == pytest.approx(np.percentile(e, 90), abs=1e-12)
+    assert t["n_scored"][0] == 2 * n and t["n_runs"][0] == n_runs
+    assert error_table(truth, truth, meta, mask)["median_abs_err"].eq(0).all()
+    s = error_table(c * pred, c * truth, meta, mask, by=("scenario",))
+    assert s["median_abs_err"][0] == pytest.approx(abs(c) * t["median_abs_err"][0],
+                                                   rel=1e-9, abs=1e-12)
