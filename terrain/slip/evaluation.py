@@ -143,13 +143,19 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
     if np.ndim(Y) < 1 or len(Y) != len(X):
         raise ShapeError(f"fit_predict: Y must have one row per window of X ({len(X)}), got "
                          f"shape {np.shape(Y)}")
-    if np.any(train & test) or not train.any() or not test.any():
-        raise ConfigError("train and test windows must be disjoint and non-empty")
+    _check_disjoint(train, test)
     model = make_model()
     model.fit(X[train], Y[train])
     out = np.full(Y.shape, np.nan)
     out[test] = model.predict(X[test])
     return out
+
+
+def _check_disjoint(train: np.ndarray, test: np.ndarray) -> None:
+    """Refuse (ConfigError) train and test window masks that overlap or of which one is
+    empty."""
+    if np.any(train & test) or not train.any() or not test.any():
+        raise ConfigError("train and test windows must be disjoint and non-empty")
 
 
 def error_table(pred: np.ndarray, truth: np.ndarray, meta: pd.DataFrame, mask: np.ndarray,
@@ -650,7 +656,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
         ``groups`` without one value per window, or ``train`` or ``test`` not a boolean mask
         of one value per window (an integer 0/1 mask picked the groups of windows 0 and 1).
     ConfigError
-        As :func:`fit_predict`.
+        As :func:`fit_predict`: ``train`` and ``test`` overlap or one is empty.
     """
     n = len(X)
     train = _window_mask("leave_one_out", "train", train, n)
@@ -659,6 +665,8 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     if groups.shape != (n,):    # a bare numpy IndexError before
         raise ShapeError(f"leave_one_out: groups must have shape ({n},) (one per window), got "
                          f"{groups.shape}")
+    # (an empty test mask gave all NaN, overlapping masks were scored, without a word)
+    _check_disjoint(train, test)
     out = np.full(Y.shape, np.nan)
     for g in np.unique(groups[test]):
         m = groups == g

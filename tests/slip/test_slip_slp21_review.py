@@ -63,3 +63,69 @@ def test_error_table_hand_computation_and_scale(n_runs, per_run, c, seed):
     s = error_table(c * pred, c * truth, meta, mask, by=("scenario",))
     assert s["median_abs_err"][0] == pytest.approx(abs(c) * t["median_abs_err"][0],
                                                    rel=1e-9, abs=1e-12)
+
+
+class _Recorder:
+    """Mean predictor that records the windows (index labels) it was fitted on."""
+
+    seen: list = []
+
+    def fit(self, X, Y):
+        self.index = set(X.index)
+        _Recorder.seen.append(self.index)
+        self.mean = np.nanmean(Y, axis=0)
+        return self
+
+    def predict(self, X):
+        return np.tile(self.mean, (len(X), 1))
+
+
+@FAST
+@given(st.lists(st.sampled_from("ABC"), min_size=4, max_size=30),
+       st.integers(0, 2 ** 31 - 1))
+def test_leave_one_out_never_sees_the_predicted_group(groups, seed):
+    """Each test window's prediction is the mean of the train windows of other groups (a
+    hand computation), from a model that saw none of its group's windows."""
+    from terrain.slip.evaluation import leave_one_out
+
+    groups = np.array(groups)
+    n = len(groups)
+    rng = np.random.default_rng(seed)
+    test = rng.random(n) < 0.5
+    test[0], test[-1] = True, False
+    train = ~test
+    X = pd.DataFrame({"f": rng.normal(size=n)})
+    Y = rng.normal(size=(n, 2))
+    _Recorder.seen = []
+    out = leave_one_out(_Recorder, X, Y, groups, train, test)
+    for i in range(n):
+        other = train & (groups != groups[i])
+        if test[i] and other.any():
+            np.testing.assert_allclose(out[i], Y[other].mean(axis=0), rtol=1e-12)
+        else:
+            assert np.isnan(out[i]).all()
+    for seen in _Recorder.seen:     # no model trained on a test window or on two sides
+        assert not any(test[i] for i in seen)
+
+
+@pytest.mark.parametrize("case", ["overlap", "empty_test", "empty_train"])
+def test_leave_one_out_refuses_masks_as_documented(case):
+    """Raises ConfigError "as fit_predict": overlapping or empty masks (an empty test mask
+    returned all NaN, an overlapping pair was scored without a word)."""
+    from terrain.errors import ConfigError
+    from terrain.slip.evaluation import leave_one_out
+
+    n = 6
+    groups = np.array(list("AABBCC"))
+    train = np.array([True, False] * 3)
+    test = ~train
+    if case == "overlap":
+        test = test.copy()
+        test[0] = True
+    elif case == "empty_test":
+        test = np.zeros(n, bool)
+    else:
+        train = np.zeros(n, bool)
+    with pytest.raises(ConfigError, match="disjoint and non-empty"):
+        leave_one_out(_Recorder, pd.DataFrame({"f": np.arange(float(n))}),
+                      np.zeros((n, 2)), groups, train, test)
