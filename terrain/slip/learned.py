@@ -113,7 +113,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             (m/s).
         groups : array-like, shape (n_windows,), optional
             Run of each window (grouped calibration folds); None: no calibration
-            (:meth:`predict_std` then returns NaN).
+            (:meth:`predict_std` then returns NaN). The folds are scikit-learn's
+            ``GroupKFold``: runs of equal window counts are dealt to them in the sorted
+            order of their ids, so renaming runs (not reordering rows) can change the
+            calibrated std, never the predictions.
 
         Returns
         -------

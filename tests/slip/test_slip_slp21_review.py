@@ -129,3 +129,90 @@ def test_leave_one_out_refuses_masks_as_documented(case):
     with pytest.raises(ConfigError, match="disjoint and non-empty"):
         leave_one_out(_Recorder, pd.DataFrame({"f": np.arange(float(n))}),
                       np.zeros((n, 2)), groups, train, test)
+
+
+def _learned_data(n_runs: int = 6, per_run: int = 25, seed: int = 0):
+    rng = np.random.default_rng(seed)
+    n = n_runs * per_run
+    X = pd.DataFrame(rng.normal(size=(n, 4)), columns=["a", "b", "c", "d"])
+    noise = 0.02 * rng.normal(size=(n, 2))
+    y = np.column_stack([0.1 * X.a + noise[:, 0], -0.1 * X.a + noise[:, 1],
+                         np.where(X.d > 0, 2 + X.c, np.nan), 0.01 * X.b])
+    return X, y, np.repeat(np.arange(n_runs), per_run)
+
+
+def _fit(X, y, groups, **kw):
+    import warnings
+
+    from threadpoolctl import threadpool_limits
+
+    from terrain.slip.learned import SlipRegressor
+
+    with threadpool_limits(1, "openmp"), warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return SlipRegressor(max_iter=5, min_samples_leaf=5, calibration_folds=3,
+                             **kw).fit(X, y, groups=groups)
+
+
+def test_learned_round_trips_bit_for_bit():
+    """pickle and skops (the logged format) round trips, and a refit with the same seed,
+    predict (compiled and reference path) and predict_std bit for bit."""
+    import pickle
+
+    import skops.io as sio
+
+    X, y, groups = _learned_data()
+    m = _fit(X, y, groups)
+    p, s, v = m.predict(X), m.predict_std(X), m.predict_std(X, "variance")
+    blob = sio.dumps(m)
+    for other in (pickle.loads(pickle.dumps(m)),
+                  sio.loads(blob, trusted=sio.get_untrusted_types(data=blob)),
+                  _fit(X, y, groups)):
+        assert np.array_equal(other.predict(X), p)
+        assert np.array_equal(other.predict_reference(X), p)
+        assert np.array_equal(other.predict_std(X), s)
+        assert np.array_equal(other.predict_std(X, "variance"), v)
+        assert other.calibration_ == m.calibration_
+
+
+def test_learned_metamorphic_rows_sides_columns():
+    """Row order changes the fit at rounding level only; swapping the sides' targets swaps
+    the predicted sides (the std is one per window: unchanged); a column permutation of the
+    features with the same permutation at predict gives the same predictions."""
+    X, y, groups = _learned_data()
+    m = _fit(X, y, groups)
+    p, s = m.predict(X), m.predict_std(X)
+    perm = np.random.default_rng(1).permutation(len(X))
+    r = _fit(X.iloc[perm], y[perm], groups[perm])
+    np.testing.assert_allclose(r.predict(X), p, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(r.predict_std(X), s, rtol=1e-9, atol=1e-15)
+    w = _fit(X, y[:, [1, 0, 2, 3]], groups)
+    np.testing.assert_allclose(w.predict(X)[:, [1, 0, 2, 3]], p, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(w.predict_std(X), s, rtol=1e-9, atol=1e-15)
+    cols = ["d", "b", "a", "c"]
+    c = _fit(X[cols], y, groups)
+    np.testing.assert_allclose(c.predict(X[cols]), p, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(c.predict_std(X[cols]), s, rtol=1e-9, atol=1e-15)
+
+
+def test_learned_run_ids_change_no_prediction():
+    """Run ids only group the calibration folds: any renaming leaves the predictions as
+    they are, and a renaming that keeps their sorted order leaves the std too."""
+    X, y, groups = _learned_data()
+    m = _fit(X, y, groups)
+    renamed = np.array(["z", "a", "m", "b", "y", "c"])[groups]
+    assert np.array_equal(_fit(X, y, renamed).predict(X), m.predict(X))
+    kept = np.array([f"sim/run/{g}" for g in groups])
+    assert np.array_equal(_fit(X, y, kept).predict_std(X), m.predict_std(X))
+
+
+@pytest.mark.xfail(strict=True, reason="GroupKFold deals runs of equal window counts to the "
+                   "calibration folds in the sorted order of their ids, so renaming runs "
+                   "moves the calibrated std (here by ~0.03 at a std ~0.05); making it id-"
+                   "free would move the std_calibration figures of terrain slip-fit")
+def test_learned_std_independent_of_run_ids():
+    X, y, groups = _learned_data()
+    m = _fit(X, y, groups)
+    renamed = np.array(["z", "a", "m", "b", "y", "c"])[groups]
+    np.testing.assert_allclose(_fit(X, y, renamed).predict_std(X), m.predict_std(X),
+                               rtol=1e-6)
