@@ -216,3 +216,33 @@ def test_learned_std_independent_of_run_ids():
     renamed = np.array(["z", "a", "m", "b", "y", "c"])[groups]
     np.testing.assert_allclose(_fit(X, y, renamed).predict_std(X), m.predict_std(X),
                                rtol=1e-6)
+
+
+@FAST
+@given(st.integers(1, 4), st.integers(1, 6), st.floats(1e-3, 1e3),
+       st.integers(0, 2 ** 31 - 1))
+def test_std_calibration_hand_computation_and_scale(n_runs, per_run, c, seed):
+    """Coverage, normalised squares, median std and error equal a hand computation over both
+    sides; scaling prediction, truth and std by c > 0 changes only median_std and
+    median_abs_err (by c); an exact std at every window covers all within 1 std."""
+    meta = _meta(n_runs, per_run)
+    n = len(meta)
+    rng = np.random.default_rng(seed)
+    pred, truth = rng.normal(size=(n, 2)), rng.normal(size=(n, 2))
+    std = rng.uniform(0.1, 2.0, size=(n, 2))
+    mask = np.ones(n, bool)
+    t = std_calibration_table(pred, std, truth, meta, mask).iloc[0]
+    u = (np.abs(pred - truth) / std).ravel()
+    assert t["n_scored"] == 2 * n and t["n_windows"] == n
+    assert t["coverage_1std"] == pytest.approx(np.mean(u <= 1), abs=1e-12)
+    assert t["coverage_2std"] == pytest.approx(np.mean(u <= 2), abs=1e-12)
+    assert t["median_normalised_sq"] == pytest.approx(np.median(u ** 2), rel=1e-12)
+    assert t["mean_normalised_sq"] == pytest.approx(np.mean(u ** 2), rel=1e-12)
+    assert t["median_std"] == pytest.approx(np.median(std), rel=1e-12)
+    s = std_calibration_table(c * pred, c * std, c * truth, meta, mask).iloc[0]
+    for k in ("coverage_1std", "coverage_2std", "median_normalised_sq", "mean_normalised_sq"):
+        assert s[k] == pytest.approx(t[k], rel=1e-9, abs=1e-9)
+    for k in ("median_std", "median_abs_err"):
+        assert s[k] == pytest.approx(c * t[k], rel=1e-9)
+    exact = std_calibration_table(pred, np.abs(pred - truth) + 1e-12, truth, meta, mask)
+    assert exact["coverage_1std"].eq(1.0).all()
