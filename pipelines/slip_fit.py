@@ -254,11 +254,14 @@ def _summary(errors: pd.DataFrame, odo: pd.DataFrame) -> dict[str, float]:
         plain, comp = float(g["plain_err_pct"].median()), float(g["compensated_err_pct"].median())
         out[f"odometry.{scen}.plain_err_pct"] = plain
         out[f"odometry.{scen}.compensated_err_pct"] = comp
-        out[f"odometry.{scen}.reduction_of_median_pct"] = 100 * (1 - comp / plain)
+        # plain odometry exactly on the truth: no reduction (NaN, as odometry_errors' own
+        # reduction_pct), not a ZeroDivisionError after the whole fit
+        reduction = (lambda err: 100 * (1 - err / plain) if plain > 0 else float("nan"))
+        out[f"odometry.{scen}.reduction_of_median_pct"] = reduction(comp)
         gyro = float(g["compensated_gyro_err_pct"].median())
         out[f"odometry.{scen}.compensated_gyro_err_pct"] = gyro
         out[f"odometry.{scen}.gyro_heading_err_pct"] = float(g["gyro_heading_err_pct"].median())
-        out[f"odometry.{scen}.gyro_reduction_of_median_pct"] = 100 * (1 - gyro / plain)
+        out[f"odometry.{scen}.gyro_reduction_of_median_pct"] = reduction(gyro)
         slipping = g[g["plain_err_pct"] > 2.0]       # beyond the 0.8 % speed-quantum floor
         out[f"odometry.{scen}.slipping_runs"] = float(len(slipping))
         out[f"odometry.{scen}.slipping_median_reduction_pct"] = float(
