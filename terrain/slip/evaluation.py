@@ -384,6 +384,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
 
     Raises
     ------
+    ShapeError
+        ``pred`` is not ``(n, >= 4)`` with ``n`` the windows of ``meta``.
     ConfigError
         A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta``, or two
         of ``runs`` sharing an id (named).
@@ -401,6 +403,12 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         it (their count, and of how many runs).
     """
     by_id = runs_by_id(runs, "odometry_errors")
+    pred = np.asarray(pred, dtype=float)
+    if pred.ndim != 2 or pred.shape[0] != len(meta) or pred.shape[1] < 4:
+        # (a slip-only prediction was a bare IndexError, another row count read the
+        # predictions of other windows)
+        raise ShapeError(f"odometry_errors: pred must have shape ({len(meta)}, >= 4) (slip_1, "
+                         f"slip_2, chi, v_by of each window of meta), got {pred.shape}")
     rows = []
     n_clipped = n_samples = n_runs_clipped = 0
     for rid in run_ids:

@@ -246,3 +246,15 @@ def test_std_calibration_hand_computation_and_scale(n_runs, per_run, c, seed):
         assert s[k] == pytest.approx(c * t[k], rel=1e-9)
     exact = std_calibration_table(pred, np.abs(pred - truth) + 1e-12, truth, meta, mask)
     assert exact["coverage_1std"].eq(1.0).all()
+
+
+@pytest.mark.parametrize("shape", [(4, 2), (3, 4), (4,)])
+def test_odometry_errors_refuses_a_prediction_of_another_shape(shape):
+    """pred is (n, 4) (slip_1, slip_2, chi, v_by per window of meta): a slip-only (n, 2)
+    prediction was a bare IndexError inside the interpolation, another row count read
+    other windows' predictions."""
+    from terrain.errors import ShapeError
+    from terrain.slip.evaluation import odometry_errors
+
+    with pytest.raises(ShapeError, match="pred"):
+        odometry_errors([], _meta(2, 2), np.zeros(shape), 0.5, [])
