@@ -258,3 +258,42 @@ def test_odometry_errors_refuses_a_prediction_of_another_shape(shape):
 
     with pytest.raises(ShapeError, match="pred"):
         odometry_errors([], _meta(2, 2), np.zeros(shape), 0.5, [])
+
+
+finite_slip = st.floats(-1.0, 1.0, allow_nan=False)
+finite_std = st.floats(1e-4, 1.0, allow_nan=False)
+
+
+@FAST
+@given(st.lists(st.tuples(finite_slip, finite_slip, finite_std, finite_std),
+                min_size=1, max_size=8),
+       st.one_of(st.none(), st.floats(-1.0, 1.0)))
+def test_fused_pseudo_measurement_is_a_convex_combination(rows, rho):
+    """The fused slip lies between the physics and learned slips; its std is at most the
+    larger of the two (at most the smaller for uncorrelated errors, and the smaller when
+    the correlation is None); equal inputs fuse to themselves; swapping the sides swaps the
+    outputs."""
+    from terrain.slip.estimate import FusionSettings, pseudo_measurement
+
+    a = np.array(rows)
+    t = np.arange(len(a), dtype=float)
+    sp, sl = np.repeat(a[:, :1], 2, axis=1), np.repeat(a[:, 1:2], 2, axis=1)
+    sp[:, 1] *= -0.5
+    vp, vl = np.repeat(a[:, 2:3], 2, axis=1), np.repeat(a[:, 3:4], 2, axis=1)
+    settings = FusionSettings(min_std=1e-6, error_correlation=rho)
+    out = {"physics": (t, sp, vp), "learned": (t, sl, vl)}
+    _, mean, std = pseudo_measurement(out, "fused", settings)
+    lo, hi = np.minimum(sp, sl), np.maximum(sp, sl)
+    assert np.all(mean >= lo - 1e-12) and np.all(mean <= hi + 1e-12)
+    assert np.all(std <= np.maximum(vp, vl) * (1 + 1e-9))
+    if rho is None or rho == 0:
+        assert np.all(std <= np.minimum(vp, vl) * (1 + 1e-9))
+    _, same, same_std = pseudo_measurement({"physics": (t, sp, vp), "learned": (t, sp, vp)},
+                                           "fused", FusionSettings(min_std=1e-6,
+                                                                   error_correlation=None))
+    np.testing.assert_allclose(same, sp, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(same_std, vp, rtol=1e-12)
+    sw = {k: (t, s[:, ::-1], v[:, ::-1]) for k, (_, s, v) in out.items()}
+    _, m2, s2 = pseudo_measurement(sw, "fused", settings)
+    np.testing.assert_array_equal(m2, mean[:, ::-1])
+    np.testing.assert_array_equal(s2, std[:, ::-1])
