@@ -378,9 +378,16 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Raises
         ------
         sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
-            As :meth:`predict`.
+            As :meth:`predict`; ShapeError also for a ``y`` without one row per window of
+            ``X`` and at least the two slip columns.
         """
-        err = np.abs(self.predict(X)[:, :2] - np.asarray(y, dtype=float)[:, :2])
+        pred = self.predict(X)
+        y = np.asarray(y, dtype=float)
+        if y.ndim != 2 or len(y) != len(pred) or y.shape[1] < 2:
+            # (a 1-D y was a bare IndexError, another row count a broadcasting ValueError)
+            raise ShapeError(f"y must have shape ({len(pred)}, >= 2) (slip_1, slip_2 of each "
+                             f"window first), got {y.shape}")
+        err = np.abs(pred[:, :2] - y[:, :2])
         return -float(np.median(err))
 
 

@@ -297,3 +297,19 @@ def test_fused_pseudo_measurement_is_a_convex_combination(rows, rho):
     _, m2, s2 = pseudo_measurement(sw, "fused", settings)
     np.testing.assert_array_equal(m2, mean[:, ::-1])
     np.testing.assert_array_equal(s2, std[:, ::-1])
+
+
+def test_learned_score_by_hand_and_refuses_other_targets():
+    """score is minus the median absolute slip error over both sides (0 for a perfect
+    target); y of another shape is a ShapeError (a 1-D y was a bare IndexError, another row
+    count a broadcasting ValueError)."""
+    from terrain.errors import ShapeError
+
+    X, y, groups = _learned_data()
+    m = _fit(X, y, groups)
+    p = m.predict(X)
+    assert m.score(X, p) == 0.0
+    assert m.score(X, y) == -np.median(np.abs(p[:, :2] - y[:, :2]).ravel())
+    for bad in (y[:, 0], y[:-1], y[:, :1]):
+        with pytest.raises(ShapeError, match="y"):
+            m.score(X, bad)
