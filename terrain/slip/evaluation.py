@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
-                            ShapeError, config_positive)
+                            ShapeError, config_positive, refuse_missing)
 from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -665,6 +665,8 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
         of one value per window (an integer 0/1 mask picked the groups of windows 0 and 1).
     ConfigError
         As :func:`fit_predict`: ``train`` and ``test`` overlap or one is empty.
+    NonFiniteInputError
+        A missing group (NaN or None) (:func:`terrain.errors.refuse_missing`).
     """
     n = len(X)
     train = _window_mask("leave_one_out", "train", train, n)
@@ -675,6 +677,10 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
                          f"{groups.shape}")
     # (an empty test mask gave all NaN, overlapping masks were scored, without a word)
     _check_disjoint(train, test)
+    # a window of no group is left out with none (NaN: a misleading mask error; None: a
+    # bare TypeError sorting the groups)
+    refuse_missing("leave_one_out", "groups", groups, "group(s)",
+                   "every window belongs to the group it is left out with")
     out = np.full(Y.shape, np.nan)
     for g in np.unique(groups[test]):
         m = groups == g

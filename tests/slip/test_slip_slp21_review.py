@@ -313,3 +313,18 @@ def test_learned_score_by_hand_and_refuses_other_targets():
     for bad in (y[:, 0], y[:-1], y[:, :1]):
         with pytest.raises(ShapeError, match="y"):
             m.score(X, bad)
+
+
+@pytest.mark.parametrize("missing", [np.nan, None])
+def test_leave_one_out_refuses_a_window_without_group(missing):
+    """A window whose group is NaN or None cannot be left out with its group: NaN was
+    'train and test windows must be disjoint and non-empty' (masks that were fine), None a
+    bare TypeError from sorting; now NonFiniteInputError naming groups."""
+    from terrain.errors import NonFiniteInputError
+    from terrain.slip.evaluation import leave_one_out
+
+    groups = np.array(["a", "a", missing, missing, "b", "b"], dtype=object)
+    train = np.array([True, False] * 3)
+    with pytest.raises(NonFiniteInputError, match="groups"):
+        leave_one_out(_Recorder, pd.DataFrame({"f": np.arange(6.0)}), np.zeros((6, 2)),
+                      groups, train, ~train)
