@@ -27,7 +27,8 @@ from sklearn.model_selection import GroupKFold
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
-                            ShapeError, config_integer, config_positive, duplicated, listed)
+                            ShapeError, config_integer, config_positive, duplicated, listed,
+                            refuse_missing)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -131,8 +132,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             ``X`` is not 2-D, ``y`` is not ``(n_windows, 4)``, or ``groups`` has another
             length than ``X``.
         NonFiniteInputError
-            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite, or a ``chi``
-            target is infinite.
+            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite, a ``chi``
+            target is infinite, or a run of ``groups`` is missing (NaN or None).
 
         Warns
         -----
@@ -169,6 +170,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             groups = np.asarray(groups)
             if len(groups) != len(X):
                 raise ShapeError(f"groups has {len(groups)} entries for {len(X)} windows")
+            # (None: a bare TypeError, NaN: scikit-learn's error, both after the four fits)
+            refuse_missing("SlipRegressor.fit", "groups", groups, "run(s)",
+                           "the calibration folds group every window by its run")
         self.n_features_in_ = X.shape[1]
         if names is not None:
             self.feature_names_in_ = names

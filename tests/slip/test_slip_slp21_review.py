@@ -328,3 +328,17 @@ def test_leave_one_out_refuses_a_window_without_group(missing):
     with pytest.raises(NonFiniteInputError, match="groups"):
         leave_one_out(_Recorder, pd.DataFrame({"f": np.arange(6.0)}), np.zeros((6, 2)),
                       groups, train, ~train)
+
+
+@pytest.mark.parametrize("missing", [np.nan, None])
+def test_learned_fit_refuses_a_window_without_run(missing):
+    """A missing run id in groups (the calibration folds) was a bare TypeError (None) or
+    scikit-learn's 'Input groups contains NaN', after the four fits; now
+    NonFiniteInputError naming groups, before any fit."""
+    from terrain.errors import NonFiniteInputError
+
+    X, y, groups = _learned_data()
+    groups = groups.astype(object)
+    groups[3] = missing
+    with pytest.raises(NonFiniteInputError, match="groups"):
+        _fit(X, y, groups)
