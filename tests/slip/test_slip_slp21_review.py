@@ -342,3 +342,18 @@ def test_learned_fit_refuses_a_window_without_run(missing):
     groups[3] = missing
     with pytest.raises(NonFiniteInputError, match="groups"):
         _fit(X, y, groups)
+
+
+def test_learned_constant_chi_is_the_median_of_the_turning_targets():
+    """Fewer than 2 min_samples_leaf turning windows: chi is the median of their targets on
+    every window (1 without any), in predict and predict_reference alike."""
+    X, y, groups = _learned_data()
+    y = y.copy()
+    y[:, 2] = np.nan
+    y[:7, 2] = [1.5, 2.0, 2.5, 3.0, 1.0, 4.0, 2.2]
+    m = _fit(X, y, groups)
+    assert m.chi_model_ is None
+    assert np.all(m.predict(X)[:, 2] == np.median(y[:7, 2]))
+    assert np.array_equal(m.predict(X), m.predict_reference(X))
+    y[:, 2] = np.nan
+    assert np.all(_fit(X, y, groups).predict(X)[:, 2] == 1.0)
