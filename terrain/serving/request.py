@@ -460,8 +460,20 @@ def planned_decisions(run: Run, window_s: float, hop_s: float) -> int:
         An upper bound of the number of decisions (0 when the span is shorter than a
         window).
     """
-    span = time_span_s(run) - window_s
-    return int(math.floor(span / hop_s)) + 1 if span >= 0 else 0
+    first = min(float(f[TIME].iloc[0]) for f in run.streams.values())
+    last = max(float(f[TIME].iloc[-1]) for f in run.streams.values())
+    # the decision times as the service's clock computes them (the first window's end plus
+    # a whole number of hops) against the newest sample: the floor of the span alone
+    # planned one fewer where the span's rounding fell short (4.1 - 0.1 = 3.9999999999999996)
+    origin = first + window_s
+    if origin > last:
+        return 0
+    hops = int(math.floor((last - origin) / hop_s))
+    while origin + (hops + 1) * hop_s <= last:
+        hops += 1
+    while hops > 0 and origin + hops * hop_s > last:
+        hops -= 1
+    return hops + 1
 
 
 def time_span_s(run: Run) -> float:
