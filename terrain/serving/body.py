@@ -275,8 +275,8 @@ def _csv_refusal(body: bytes) -> tuple[int, dict] | None:
 def _huge_csv_field(text: str, header: list[str]) -> tuple[str, str | None, int] | None:
     """(number as written, its column, 1-based line) of the first CSV field beyond the
     float range, or None. Without quotes a field is found by counting commas; with quotes
-    the csv module splits the rows (a quoted field may hold a comma or a line break; the
-    line is then the row's last)."""
+    the csv module splits the rows (a quoted field may hold a comma or a line break: the
+    line is the row's first plus the line breaks in the fields before it)."""
     if '"' not in text:
         for found in _HUGE_NUMBER.finditer(text):
             if math.isinf(float(found.group())):
@@ -288,12 +288,14 @@ def _huge_csv_field(text: str, header: list[str]) -> tuple[str, str | None, int]
         return None
     reader = csv.reader(io.StringIO(text, newline=""))
     next(reader, None)  # the header
+    first = reader.line_num + 1   # the line each row starts on
     for row in reader:
         for field, value in enumerate(row):
             value = value.strip()
             if _HUGE_NUMBER.fullmatch(value) and math.isinf(float(value)):
-                return (value, header[field] if field < len(header) else None,
-                        reader.line_num)
+                line = first + sum(len(_TEXT_LINE_END.findall(v)) for v in row[:field])
+                return (value, header[field] if field < len(header) else None, line)
+        first = reader.line_num + 1
     return None
 
 
