@@ -191,7 +191,8 @@ def _ragged_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
     NaN, which the served model cannot tell from a cell left empty on purpose, and would
     take the first field of rows one field longer than the header as an index, shifting
     every column; blank lines are skipped as pandas skips them. A body with quotes is
-    split by :mod:`csv` (a quoted field may hold a comma or a line break), any other by its
+    split by :mod:`csv` (a quoted field may hold a comma or a line break: the line is the
+    one the row starts on), any other by its
     commas; a body with an unterminated quote is refused before this is asked. The blank
     lines before the header are skipped as pandas skips them (counted in the line)."""
     start, skipped = _header_start(body)
@@ -199,11 +200,13 @@ def _ragged_csv_row(body: bytes, n_columns: int) -> tuple[int, int] | None:
     if b'"' in body:  # newline="": the csv module then takes any of the line ends
         reader = csv.reader(io.StringIO(body.decode("utf-8", "replace"), newline=""))
         next(reader, None)  # the header
-        for row in reader:
+        first = reader.line_num + 1   # the line a row starts on (a quoted field may hold
+        for row in reader:            # line breaks: the row then ends lines later)
             # pandas skips a line of spaces and tabs only
             blank = len(row) == 1 and not row[0].strip(BLANK)
             if row and not blank and len(row) != n_columns:
-                return reader.line_num + skipped, len(row)
+                return first + skipped, len(row)
+            first = reader.line_num + 1
         return None
     for number, line in enumerate(LINE_END.split(body)[1:], start=2 + skipped):
         if line.strip(BLANK.encode()) and line.count(b",") + 1 != n_columns:

@@ -59,3 +59,23 @@ def test_a_number_beyond_the_float_range_is_named_with_the_line_of_its_cell(case
     message = answer["message"]
     assert message.startswith("ImplausibleValueError: number 1e400 beyond the float range")
     assert f"column '{column}', line {line})" in message, (body, message)
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=list(HealthCheck))
+@given(prefix=st.sampled_from(["", "\ufeff", "\n", " \r\n"]),
+       end=st.sampled_from(["\n", "\r\n", "\r"]), breaks=st.integers(1, 3),
+       short=st.booleans(), before=st.integers(0, 2))
+def test_a_ragged_row_holding_a_quoted_line_break_is_named_with_its_first_line(
+        prefix, end, breaks, short, before):
+    """A row whose quoted note holds line breaks spans several lines; it was named with its
+    last, a line holding only the note's tail."""
+    good = '"wheels","0.0","0.1","0.2","a"'
+    note = '"a' + "\nb" * breaks + '"'
+    ragged = '"wheels","0.2","0.1",' + note if short else '"wheels","0.2","0.1","0.2",' \
+        + note + ',"x"'
+    lines = [",".join(HEADER), *[good] * before, ragged, good]
+    body = (prefix + end.join(lines) + end).encode()
+    line = prefix.count("\n") + prefix.count("\r") - prefix.count("\r\n") + 2 + before
+    status, answer = body_refusal("text/csv", body, None, LIMIT)
+    assert status == 400 and answer["message"].startswith("RaggedRowError"), answer
+    assert answer["message"].endswith(f"(file request, line {line})"), (body, answer)
