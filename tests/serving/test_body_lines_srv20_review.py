@@ -18,18 +18,20 @@ HEADER = ["stream", "t_s", "vel_l", "vel_r", "note"]
 
 @st.composite
 def bodies(draw):
-    """(body, 1-based line of the cell ``1e400``, column of it)."""
+    """(body, 1-based line of the cell ``1e400``, column of it); the note, which may hold
+    line breaks, before or after the number columns."""
     n = draw(st.integers(2, 6))
     bad_row = draw(st.integers(0, n - 1))
     bad_col = draw(st.sampled_from(["t_s", "vel_l", "vel_r"]))
     end = draw(st.sampled_from(["\n", "\r\n", "\r"]))
     quote_all = draw(st.booleans())
+    header = draw(st.sampled_from([HEADER, ["stream", "note", "t_s", "vel_l", "vel_r"]]))
     text = "\ufeff" if draw(st.booleans()) else ""
     line = 1
     for _ in range(draw(st.integers(0, 2))):   # blank lines before the header, skipped too
         text += draw(st.sampled_from(["", " "])) + end
         line += 1
-    text += ",".join(HEADER) + end
+    text += ",".join(header) + end
     line += 1
     target = None
     for row in range(n):
@@ -43,8 +45,10 @@ def bodies(draw):
                  "vel_r": "0.2", "note": note}
         if row == bad_row:
             cells[bad_col] = "1e400"
-            target = line
-        fields = [f'"{cells[c]}"' if quote_all else cells[c] for c in HEADER]
+            # the cell's own line: after the note's line breaks where the note comes first
+            target = line + (note_breaks if header.index("note") < header.index(bad_col)
+                             else 0)
+        fields = [f'"{cells[c]}"' if quote_all else cells[c] for c in header]
         text += ",".join(fields) + end
         line += 1 + len(re.findall(r"\r\n|\r|\n", note))
     return text.encode(), target, bad_col
