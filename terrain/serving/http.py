@@ -415,8 +415,11 @@ class RequestGuard:
                     if body is None:  # the client went away
                         return
                     try:
+                        # under a Content-Type MLflow refuses (415), whatever the body
                         refused = body_refusal(headers.get(b"content-type", b"").decode(
-                            "latin-1"), body, self.max_rows, self.max_body_bytes)
+                            "latin-1"), body, self.max_rows, self.max_body_bytes) \
+                            if mlflow_takes_parameters(headers.get(b"content-type", b"")) \
+                            else None
                     except Exception as exc:  # past the guard, Starlette's plain-text 500
                         refused = _failure(exc)
                     if refused is None:
@@ -558,6 +561,28 @@ def normalised_content_type(value: bytes) -> bytes:
         if name or text:
             parts.append(name + sep + text)
     return b"; ".join(parts)
+
+
+def mlflow_takes_parameters(value: bytes) -> bool:
+    """Whether MLflow's scoring server takes a Content-Type's parameters: none, or a charset
+    of UTF-8 (compared as :func:`normalised_content_type` writes it). Under any other (a
+    charset such as ``latin-1``, a parameter such as ``header=present`` or MLflow 1's
+    ``format=pandas-split``) it answers 415 whatever the body, so the guard's body checks
+    are not asked: one header, one verdict.
+
+    Parameters
+    ----------
+    value : bytes
+        The Content-Type header's value, as sent.
+
+    Returns
+    -------
+    bool
+    """
+    if b";" not in value:   # the usual request: no parameter
+        return True
+    return all(param == b"charset=utf-8"
+               for param in normalised_content_type(value).split(b"; ")[1:])
 
 
 def _content_type_normalised(raw_headers: list[tuple[bytes, bytes]]
