@@ -15,8 +15,8 @@ import numba
 import numpy as np
 from scipy import signal
 
-from terrain.errors import (ConfigError, DataFormatError, ShapeError, config_integer,
-                            config_numbers, config_positive, refuse_booleans, refuse_unreal)
+from terrain.errors import (ConfigError, ShapeError, config_integer, config_numbers,
+                            config_positive, real_arrays)
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
@@ -131,13 +131,7 @@ def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     unknown = [s for s in names if s not in _STATISTIC_NAMES]
     if unknown:
         raise ConfigError(f"unknown statistics {unknown}; valid: {list(_STATISTIC_NAMES)}")
-    # (a mask was read as samples of 0 and 1, text failed inside NumPy naming nothing)
-    refuse_booleans(DataFormatError, "statistics", x=x)
-    try:
-        x = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        refuse_unreal("statistics", x=x)
-        raise
+    x, = real_arrays("statistics", x=x)
     if x.ndim < 1 or x.shape[-1] < 1:
         raise ShapeError(f"statistics need at least one sample per row, got shape {x.shape}")
     rows = np.ascontiguousarray(x.reshape(-1, x.shape[-1]))

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (DataFormatError, EstimationError, ShapeError, duplicated,
-                            refuse_booleans, refuse_unreal)
+                            real_arrays)
 from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
                                            skid_steer_on_windows)
 from terrain.run import TIME
@@ -138,12 +138,7 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     if twice:      # the first of two was read, the other ignored without a word
         raise DataFormatError(f"EKF channels: {twice} named twice among the window channels "
                               f"{names}", None, twice[0])
-    refuse_booleans(EstimationError, "window_ekf_channels", X=X)
-    try:
-        X = np.asarray(X, dtype=float)
-    except (TypeError, ValueError):     # (text failed inside NumPy, naming nothing)
-        refuse_unreal("window_ekf_channels", X=X)
-        raise
+    X, = real_arrays("window_ekf_channels", EstimationError, X=X)
     if X.ndim != 3 or X.shape[1] != len(names):
         raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")
     idx = [names.index(c) for c in ("vel_l", "vel_r", "wz")]

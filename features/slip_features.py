@@ -30,8 +30,8 @@ import pandas as pd
 
 from features.calculators import mean, regression_gain, std
 from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
-from terrain.errors import (ConfigError, DataFormatError, config_positive, duplicated,
-                            first_items, listed, refuse_booleans, refuse_unreal)
+from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
+                            real_arrays, refuse_booleans)
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id
 from terrain.sim.sensors import SensorSettings
@@ -216,12 +216,7 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
                           f"got {x.shape}")
     # as the statistics read them (text was read by them, then failed in the slope's NumPy
     # product naming nothing; a mask passed the one-window path as samples of 0 and 1)
-    refuse_booleans(DataFormatError, "slip features", x=x)
-    try:
-        x = np.asarray(x, dtype=float)
-    except (TypeError, ValueError):
-        refuse_unreal("slip features", x=x)
-        raise
+    x, = real_arrays("slip features", x=x)
     if x.shape[2] < 2:      # (0/0 gave a NaN slope and pitch with a RuntimeWarning)
         raise ConfigError(f"windows must hold n_samples >= 2 for the speed slope, got "
                           f"{x.shape}")

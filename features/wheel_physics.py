@@ -36,9 +36,8 @@ from sklearn.utils.validation import check_is_fitted
 from features.calculators import quantile_sorted
 from features.windows import (HUSKY_TRACK_M, as_windows, refuse_changed_layout,
                               refuse_non_finite)
-from terrain.errors import (ConfigError, DataFormatError, NonFiniteInputError, ShapeError,
-                            config_numbers, config_positive, duplicated, first_items,
-                            refuse_booleans, refuse_unreal)
+from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
+                            config_positive, duplicated, first_items, real_arrays)
 from terrain.run import WHEEL_CHANNELS
 
 #: Feature names of one time scale, in output order.
@@ -224,13 +223,8 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
                     speed_scale_m_s=speed_scale_m_s, yaw_scale_rad_s=yaw_scale_rad_s,
                     ridge=ridge)
     inputs = {"vel_l": vel_l, "vel_r": vel_r, "cur_l": cur_l, "cur_r": cur_r}
-    # (a mask passed as a speed was read as 1 m/s, text failed inside NumPy naming no input)
-    refuse_booleans(DataFormatError, "physics_features", **inputs)
-    try:
-        arrays = [np.ascontiguousarray(a, dtype=float) for a in inputs.values()]
-    except (TypeError, ValueError):
-        refuse_unreal("physics_features", **inputs)
-        raise
+    # (a mask passed as a speed was read as 1 m/s)
+    arrays = [np.ascontiguousarray(a) for a in real_arrays("physics_features", **inputs)]
     shape = arrays[0].shape
     if len(shape) != 2 or shape[1] < 1 or any(a.shape != shape for a in arrays):
         raise ShapeError("physics_features: vel_l, vel_r, cur_l, cur_r must be "

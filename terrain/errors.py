@@ -281,6 +281,42 @@ def refuse_booleans(error: type[TerrainError], owner: str | None = None, **value
             raise error(f"{where}{name} must hold numbers, got booleans")
 
 
+def real_arrays(owner: str, boolean_error: type[TerrainError] | None = None,
+                **inputs) -> list[np.ndarray]:
+    """The inputs of a feature calculator as float arrays, each refusal naming its input:
+    booleans (:func:`refuse_booleans`: a mask was read as samples of 0 and 1), then what
+    does not convert to real numbers (:func:`refuse_unreal`: text failed inside NumPy,
+    naming no input). The one rule of the window statistics, the drive-physics, EKF-channel
+    and slip features.
+
+    Parameters
+    ----------
+    owner : str
+        The refusing function, for the message.
+    boolean_error : type or None
+        The :class:`TerrainError` subclass raised for booleans (None: :class:`DataFormatError`).
+    **inputs
+        Input name -> array-like of numbers (any shape), in order.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        ``np.asarray(value, dtype=float)`` of each input, in the order given.
+
+    Raises
+    ------
+    TerrainError
+        ``boolean_error`` for an input holding booleans; :class:`DataFormatError` for one
+        that does not convert to real numbers (its name as ``column``).
+    """
+    refuse_booleans(boolean_error or DataFormatError, owner, **inputs)
+    try:
+        return [np.asarray(value, dtype=float) for value in inputs.values()]
+    except (TypeError, ValueError):
+        refuse_unreal(owner, **inputs)
+        raise
+
+
 def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> None:
     """Raise :class:`NonFiniteInputError` where ``values`` hold a missing entry (NaN or
     None, as :func:`pandas.isna` reads them): the shared refusal of missing labels and runs

@@ -220,3 +220,20 @@ def test_refuse_unreal_names_the_first_input_that_is_not_numbers():
         with pytest.raises(DataFormatError, match=f"^f: {name} must hold real numbers") as e:
             refuse_unreal("f", (), **inputs)
         assert e.value.column == name
+
+
+def test_real_arrays_refuses_booleans_with_the_error_given_and_text_naming_the_input():
+    """The feature calculators' one input rule (statistics, physics_features,
+    window_ekf_channels, slip features): booleans refused with the caller's error, what does
+    not convert to real numbers as a DataFormatError naming the input; numbers come back as
+    float arrays in the order given."""
+    from terrain.errors import DataFormatError, EstimationError, real_arrays
+    a, b = real_arrays("f", x=[1, 2], y=np.array([[3]], dtype=np.int8))
+    assert a.dtype == b.dtype == float and a.tolist() == [1.0, 2.0] and b.shape == (1, 1)
+    with pytest.raises(DataFormatError, match=r"^f: y must hold numbers, got booleans$"):
+        real_arrays("f", x=[1.0], y=[True])
+    with pytest.raises(EstimationError, match=r"^f: x must hold numbers, got booleans$"):
+        real_arrays("f", EstimationError, x=np.array([False]))
+    with pytest.raises(DataFormatError, match="^f: y must hold real numbers") as err:
+        real_arrays("f", x=[1.0], y=["a"])
+    assert err.value.column == "y"
