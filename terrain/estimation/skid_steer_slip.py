@@ -643,23 +643,24 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
     cuts = [0] + [int(e) + 1 for e in ends if e + 1 < t_grid_s.size] + [t_grid_s.size]
     cuts = sorted(set(cuts))
     parts: list[EKFResult] = []
-    x0 = P0 = None
     for a, b in zip(cuts[:-1], cuts[1:]):
         std, drift, change = std_of_end.get(b - 1, (settings.slip_std, settings.slip_std, 0.0))
         model = SkidSteerSlipModel(replace(
             settings, slip_std=std, slip_psd=settings.slip_psd + settings.slip_psd_rel
             * drift ** 2 + settings.slip_psd_transient * change ** 2))
-        if parts:
-            prev = parts[-1]
-            dt = t_grid_s[a] - t_grid_s[a - 1]
-            fx, Fm = model.transition(prev.x[-1], dt)
-            P = Fm @ prev.P[-1] @ Fm.T + model.Q(dt)
-            x0, P0 = fx, 0.5 * (P + P.T)
-        parts.append(run_filter(model, t_grid_s[a:b], _own_samples(base, t_grid_s, a, b),
-                                gate=gate, x0=x0, P0=P0, store_covariance=True,
-                                engine="numpy", step_bounds=None if bounds is None
-                                else (bounds[0][a:b], bounds[1][a:b]),
-                                step_bound_movable=SPEED_BOUND_MOVABLE))
+        # a segment after the first starts one step early, at the previous segment's last
+        # step and estimate (no sample of its own there): the filter predicts over that step
+        # with this segment's model, and the samples of step a are those of (t_{a-1}, t_a],
+        # as on the whole grid (from its own first step, a segment took those of one step of
+        # its own grid: on a grid of uneven steps it counted some as outside)
+        first = a - 1 if parts else a
+        x0, P0 = (parts[-1].x[-1], parts[-1].P[-1]) if parts else (None, None)
+        part = run_filter(model, t_grid_s[first:b], _own_samples(base, t_grid_s, a, b),
+                          gate=gate, x0=x0, P0=P0, store_covariance=True, engine="numpy",
+                          step_bounds=None if bounds is None
+                          else (bounds[0][first:b], bounds[1][first:b]),
+                          step_bound_movable=SPEED_BOUND_MOVABLE)
+        parts.append(_from_step(part, a - first))
     return _concatenate(parts)
 
 
@@ -696,6 +697,16 @@ def _own_samples(samples: Mapping[str, SensorSamples], t_grid_s: np.ndarray, a: 
         keep = ((idx >= a) | (a == 0)) & ((idx < b) | (b == t_grid_s.size))
         out[name] = SensorSamples(smp.t_s[keep], smp.values[keep])
     return out
+
+
+def _from_step(result: EKFResult, k: int) -> EKFResult:
+    """``result`` from its step ``k`` on (its counts and meta kept: the steps left out hold
+    no sample)."""
+    if k == 0:
+        return result
+    return replace(result, t_s=result.t_s[k:], x=result.x[k:], P_diag=result.P_diag[k:],
+                   P=result.P[k:], y=result.y[k:], S_diag=result.S_diag[k:],
+                   accepted=result.accepted[k:], nis=result.nis[k:], dof=result.dof[k:])
 
 
 def _concatenate(parts: list[EKFResult]) -> EKFResult:
