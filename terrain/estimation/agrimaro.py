@@ -451,7 +451,8 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
     settings : AgriMaRoEKFSettings
         Tuning and pre-filter (default: the thesis's, eqs. 6.9, 6.12-6.14).
     rate_hz : float, optional
-        Filter rate, Hz (default: the IMU rate). The grid spans the IMU stream.
+        Filter rate, Hz (default: the IMU rate). The grid spans the IMU stream, its
+        timestamps less ``time_offsets_s["imu"]``.
     gate : Gate, optional
         Per-sensor chi-square gating.
     time_offsets_s : Mapping[str, float], optional
@@ -504,6 +505,9 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
                               "needs 2 or more", run.source)
     rate = check_rate_hz(rate_hz)
     rate = float(1.0 / np.median(np.diff(t_imu))) if rate is None else rate
+    # the IMU stream as the filter reads it, its latency subtracted (the recorded times put
+    # the first corrected samples before the grid, counted outside, and ran on past the last)
+    t_imu = t_imu - float(dict(time_offsets_s or {}).get("imu", 0.0))
     grid = make_grid(float(t_imu[0]), float(t_imu[-1]), rate)
     result = run_filter(model, grid, samples, gate=gate, store_covariance=store_covariance,
                         engine=engine)

@@ -59,3 +59,32 @@ def test_segments_equal_the_whole_run_on_a_non_uniform_grid():
     grid = np.cumsum(np.r_[0.0, np.tile([0.02, 0.005], 120)])
     for seed in range(3):
         _assert_same(*_whole_and_segmented(grid, seed))
+
+
+def _agrimaro_run(imu_shift_s=0.0):
+    import pandas as pd
+
+    from terrain.run import Run
+
+    rng = np.random.default_rng(4)
+    t = np.round(np.arange(201) * 0.01, 10)
+    imu = pd.DataFrame({"t_s": t - imu_shift_s, "ax": rng.normal(0, 0.1, t.size),
+                        "ay": rng.normal(0, 0.1, t.size), "wz": 0.1 + rng.normal(0, .01, t.size)})
+    cam = pd.DataFrame({"t_s": t[::3], "v_cx": 0.3, "v_cy": 0.0, "yaw_rate_c": 0.1,
+                        "yaw_c": 0.1 * t[::3]})
+    return Run("sim/TEST/07", "sim", "TEST", {"imu": imu, "cam": cam}, vehicle="agrimaro",
+               source="test.csv")
+
+
+def test_an_imu_latency_equals_imu_timestamps_moved_by_it():
+    # estimate_agrimaro laid its grid over the IMU timestamps as recorded, not as corrected
+    # by time_offsets_s["imu"]: the first samples of the corrected IMU stream fell before
+    # the grid (counted outside, 4 of 201 for 0.05 s) and the grid ran on past the last
+    from terrain.estimation.agrimaro import estimate_agrimaro
+
+    latency = estimate_agrimaro(_agrimaro_run(), time_offsets_s={"imu": 0.05})
+    moved = estimate_agrimaro(_agrimaro_run(0.05))
+    np.testing.assert_allclose(latency.t_s, moved.t_s, rtol=0, atol=1e-12)
+    assert latency.counts == moved.counts
+    assert latency.counts["imu"]["outside"] == 0
+    np.testing.assert_allclose(latency.x, moved.x, rtol=0, atol=1e-9)
