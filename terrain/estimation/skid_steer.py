@@ -32,7 +32,7 @@ scrub, the side-slip of seed 000 during turns).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from types import MappingProxyType
 from typing import TYPE_CHECKING, Mapping
 
@@ -248,7 +248,8 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     run : Run
         With a ``wheels`` stream (``vel_l``, ``vel_r``, m/s) and normally an ``imu`` stream
         (``wz``, rad/s). Without IMU the filter runs on the wheels alone (``chi`` and the
-        bias then stay at their prior).
+        bias then stay at their prior: the wheels observe ``chi yaw_rate`` only, so ``chi``
+        is a consider parameter at every yaw rate).
     settings : SkidSteerSettings
         Geometry and tuning.
     rate_hz : float, optional
@@ -304,6 +305,10 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
     t0, t1 = stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
                               f", after time_offsets_s {off}")
+    if "gyro" not in samples:
+        # the wheels observe chi yaw_rate only: chi is a consider parameter at every yaw
+        # rate (the linearised update moved ln(chi) off its prior with a shrinking variance)
+        settings = replace(settings, chi_min_yaw_rate_rad_s=float(np.finfo(float).max))
     result = run_filter(SkidSteerModel(settings), make_grid(t0, t1, rate), samples, gate=gate,
                         store_covariance=store_covariance)
     result.meta.update(model="skid-steer-4", track_m=settings.track_m,

@@ -88,3 +88,26 @@ def test_an_imu_latency_equals_imu_timestamps_moved_by_it():
     assert latency.counts == moved.counts
     assert latency.counts["imu"]["outside"] == 0
     np.testing.assert_allclose(latency.x, moved.x, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), turn=st.floats(0.1, 0.6))
+def test_without_imu_the_icr_factor_and_the_gyro_bias_stay_at_their_prior(seed, turn):
+    # estimate_skid_steer documents that on the wheels alone "chi and the bias then stay
+    # at their prior"; the wheel rows observe only chi x yaw_rate, yet the linearised update
+    # moved ln(chi) from its prior 0.405 to -0.33 with its variance down from 1.0 to 0.02
+    import pandas as pd
+
+    from terrain.estimation.skid_steer import SkidSteerModel, estimate_skid_steer
+    from terrain.run import Run
+
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(300) * 0.02, 10)
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
+                           "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size)})
+    res = estimate_skid_steer(Run("sim/TEST/00", "sim", "TEST", {"wheels": wheels}))
+    prior = SkidSteerModel()
+    for name in ("log_icr_chi", "gyro_bias"):
+        j = res.state_names.index(name)
+        np.testing.assert_array_equal(res.state(name), prior.x0[j])
+        assert (np.diff(res.P_diag[:, j]) >= 0).all()       # only the random walk's growth
