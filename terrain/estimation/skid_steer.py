@@ -249,7 +249,8 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         With a ``wheels`` stream (``vel_l``, ``vel_r``, m/s) and normally an ``imu`` stream
         (``wz``, rad/s). Without IMU the filter runs on the wheels alone (``chi`` and the
         bias then stay at their prior: the wheels observe ``chi yaw_rate`` only, so ``chi``
-        is a consider parameter at every yaw rate).
+        is a consider parameter at every yaw rate; so too with an IMU stream whose ``wz``
+        holds no finite value).
     settings : SkidSteerSettings
         Geometry and tuning.
     rate_hz : float, optional
@@ -305,7 +306,7 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
     t0, t1 = stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
                               f", after time_offsets_s {off}")
-    if "gyro" not in samples:
+    if "gyro" not in samples or not np.isfinite(samples["gyro"].values).any():
         # the wheels observe chi yaw_rate only: chi is a consider parameter at every yaw
         # rate (the linearised update moved ln(chi) off its prior with a shrinking variance)
         settings = replace(settings, chi_min_yaw_rate_rad_s=float(np.finfo(float).max))

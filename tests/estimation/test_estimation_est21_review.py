@@ -105,9 +105,11 @@ def test_without_imu_the_icr_factor_and_the_gyro_bias_stay_at_their_prior(seed, 
     t = np.round(np.arange(300) * 0.02, 10)
     wheels = pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
                            "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size)})
-    res = estimate_skid_steer(Run("sim/TEST/00", "sim", "TEST", {"wheels": wheels}))
     prior = SkidSteerModel()
-    for name in ("log_icr_chi", "gyro_bias"):
-        j = res.state_names.index(name)
-        np.testing.assert_array_equal(res.state(name), prior.x0[j])
-        assert (np.diff(res.P_diag[:, j]) >= 0).all()       # only the random walk's growth
+    dead_gyro = pd.DataFrame({"t_s": t, "wz": np.nan})     # an IMU whose wz is all NaN
+    for streams in ({"wheels": wheels}, {"wheels": wheels, "imu": dead_gyro}):
+        res = estimate_skid_steer(Run("sim/TEST/00", "sim", "TEST", streams))
+        for name in ("log_icr_chi", "gyro_bias"):
+            j = res.state_names.index(name)
+            np.testing.assert_array_equal(res.state(name), prior.x0[j])
+            assert (np.diff(res.P_diag[:, j]) >= 0).all()   # only the random walk's growth
