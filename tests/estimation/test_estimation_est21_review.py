@@ -113,3 +113,54 @@ def test_without_imu_the_icr_factor_and_the_gyro_bias_stay_at_their_prior(seed, 
             j = res.state_names.index(name)
             np.testing.assert_array_equal(res.state(name), prior.x0[j])
             assert (np.diff(res.P_diag[:, j]) >= 0).all()   # only the random walk's growth
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), engine=st.sampled_from(["numpy", "numba"]),
+       gated=st.booleans())
+def test_every_sample_is_counted_once(seed, engine, gated):
+    """Of a one-row sensor's samples each is outside the grid, non-finite, superseded in its
+    step, or the one of a step where it was used or rejected by the gate: the counts add up
+    to the samples, and used + rejected are the steps the filter saw a value at."""
+    from terrain.estimation import Gate
+    from terrain.estimation.skid_steer import SkidSteerModel
+
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(1, 40))
+    grid = np.cumsum(np.r_[0.0, rng.uniform(0.001, 0.05, n - 1)])
+    t = np.unique(np.r_[rng.uniform(-0.2, grid[-1] + 0.2, int(rng.integers(0, 80))),
+                        grid[rng.integers(0, n, 5)]])
+    g = rng.normal(0, 1, (t.size, 1)) * rng.choice([1, 50], (t.size, 1))
+    g[rng.random(g.shape) < 0.2] = np.nan
+    res = run_filter(SkidSteerModel(), grid, {"gyro": SensorSamples(t, g)},
+                     gate=Gate(0.9) if gated else None, engine=engine)
+    c = res.counts["gyro"]
+    assert c["samples"] == t.size == (c["outside"] + c["non_finite"] + c["superseded"]
+                                      + c["used"] + c["rejected"])
+    row = res.measurement_names.index("wz")
+    assert c["used"] == int(res.accepted[:, row].sum())
+    assert c["used"] + c["rejected"] == int(np.isfinite(res.y[:, row]).sum())
+
+
+def test_equal_latencies_of_every_stream_equal_timestamps_moved_by_them():
+    import pandas as pd
+
+    from terrain.estimation.skid_steer import estimate_skid_steer
+    from terrain.run import Run
+
+    rng = np.random.default_rng(2)
+    t = np.round(np.arange(400) * 0.01, 10)
+    tw = t[::5] + 0.003
+    vel_l, vel_r = 0.5 + 0.03 * rng.normal(size=tw.size), 0.8 + 0.03 * rng.normal(size=tw.size)
+    wz = 0.3 + 0.01 * rng.normal(size=t.size)
+
+    def recording(shift):
+        return Run("sim/TEST/00", "sim", "TEST", {
+            "wheels": pd.DataFrame({"t_s": tw - shift, "vel_l": vel_l, "vel_r": vel_r}),
+            "imu": pd.DataFrame({"t_s": t - shift, "wz": wz})})
+
+    late = estimate_skid_steer(recording(0.0), time_offsets_s={"wheels": 0.04, "gyro": 0.04})
+    moved = estimate_skid_steer(recording(0.04))
+    np.testing.assert_allclose(late.t_s, moved.t_s, rtol=0, atol=1e-12)
+    assert late.counts == moved.counts
+    np.testing.assert_allclose(late.x, moved.x, rtol=0, atol=1e-9)
