@@ -374,7 +374,9 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     Raises
     ------
     ConfigError
-        No member, the members do not cover the same windows in the same folds, or
+        No member, the members do not cover the same windows in the same folds, a
+        member gives one window (``seed``, ``fold``, ``run``, ``t_start_s``) more than once
+        (rows of several cells: its rows could not be paired with the other members'), or
         ``weights`` are not one per member, negative or all 0
         (:func:`~terrain.models.ensemble.normalised_weights`); ``classes`` repeated, or a
         member without the ``proba_<CLASS>`` column of one.
@@ -388,6 +390,14 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
     cols = [f"proba_{c}" for c in classes]
     for frame in members:
         _probabilities("soft_vote", frame, classes, "run")
+        # (rows of one window were paired with the other members' by their order in the frame)
+        twice = frame.duplicated(key)
+        if twice.any():
+            first = frame.loc[twice.to_numpy(), key].iloc[0]
+            raise ConfigError(f"soft_vote: {int(twice.sum())} window(s) given more than once "
+                              f"in a member (e.g. {first['run']} at {first['t_start_s']:g} s, "
+                              f"seed {first['seed']}, fold {first['fold']}): give the rows of "
+                              "one cell per member")
     w = (np.full(len(members), 1.0 / len(members)) if weights is None
          else normalised_weights(weights, len(members)))
     total = np.zeros((len(base), len(cols)))
