@@ -13,6 +13,9 @@ class Raw1dNet(nn.Module):
     """Conv1d(k7, stride 2)-BN-ReLU-pool, Conv1d(k5)-BN-ReLU-pool, Conv1d(k3)-BN-ReLU,
     global average, dropout, linear.
 
+    Input ``(batch, n_channels, n_samples)`` standardised windows (any length of 1 sample
+    or more: the global average takes what the strides and pools leave).
+
     Parameters
     ----------
     n_channels : int
