@@ -224,3 +224,19 @@ def test_soft_vote_refuses_a_window_given_twice():
         soft_vote([one, two.iloc[::-1]], ["a", "b"])
     with pytest.raises(ConfigError, match="more than once"):
         soft_vote([one, two], ["a", "b"])
+
+
+def test_cnn_scaling_comes_from_the_training_runs_without_the_early_stopping_runs():
+    from terrain.models.cnn import RawCNNClassifier
+    from terrain.models.cv import class_keeping_split
+
+    X, y = _windows(0, n=36)
+    X[np.arange(36) % 4 == 1] *= 5.0          # one run of each class on another scale
+    groups = y * 10 + np.arange(36) % 4
+    model = RawCNNClassifier(max_epochs=2, width=4, batch_size=8, device="cpu", n_threads=1,
+                             early_stopping=True, validation_splits=4, patience=1)
+    model.fit(X, y, groups)
+    tr, va = class_keeping_split(y, groups, 4, 0, "early stopping", "validation_splits", "-")
+    np.testing.assert_array_equal(model.validation_groups_, np.unique(groups[va]))
+    np.testing.assert_allclose(model.mean_[:, 0], X[tr].mean(axis=(0, 2)), atol=1e-6)
+    np.testing.assert_allclose(model.scale_[:, 0], X[tr].std(axis=(0, 2)), rtol=1e-6)
