@@ -395,7 +395,7 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
         if twice.any():
             first = frame.loc[twice.to_numpy(), key].iloc[0]
             raise ConfigError(f"soft_vote: {int(twice.sum())} window(s) given more than once "
-                              f"in a member (e.g. {first['run']} at {first['t_start_s']:g} s, "
+                              f"in a member (e.g. {first['run']} at {first['t_start_s']!s} s, "
                               f"seed {first['seed']}, fold {first['fold']}): give the rows of "
                               "one cell per member")
     w = (np.full(len(members), 1.0 / len(members)) if weights is None

@@ -224,6 +224,9 @@ def test_soft_vote_refuses_a_window_given_twice():
         soft_vote([one, two.iloc[::-1]], ["a", "b"])
     with pytest.raises(ConfigError, match="more than once"):
         soft_vote([one, two], ["a", "b"])
+    text = one.assign(t_start_s="0.0")          # read as text: the refusal still names it
+    with pytest.raises(ConfigError, match="r1 at 0.0 s"):
+        soft_vote([text, text], ["a", "b"])
 
 
 def test_cnn_scaling_comes_from_the_training_runs_without_the_early_stopping_runs():
