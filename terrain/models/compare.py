@@ -209,6 +209,14 @@ class CompareConfig:
                 for m in self.models]
 
 
+def _start(value) -> str:
+    """A window's start for a message: ``:g`` of a number, anything else (a start read as
+    text) as it is (``:g`` raised a bare ValueError in the middle of a refusal)."""
+    if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool):
+        return f"{value:g}"
+    return str(value)
+
+
 def _probabilities(owner: str, frame: pd.DataFrame, classes: Sequence[str],
                    run: str) -> np.ndarray:
     """``(n_rows, n_classes)`` the ``proba_<CLASS>`` columns of ``frame`` as floats.
@@ -232,7 +240,7 @@ def _probabilities(owner: str, frame: pd.DataFrame, classes: Sequence[str],
         row = frame[bad].iloc[0]
         raise NonFiniteInputError(f"{owner}: {int(bad.sum())} window(s) with a NaN or "
                                   f"infinite probability among {cols} (e.g. {row[run]} at "
-                                  f"{row['t_start_s']:g} s): argmax would decide them as "
+                                  f"{_start(row['t_start_s'])} s): argmax would decide them as "
                                   f"{classes[0]!r}")
     return proba
 
@@ -287,7 +295,7 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     if twice.any():
         first = predictions.loc[twice, ["group", "t_start_s"]].iloc[0]
         raise ConfigError(f"{int(twice.sum())} window(s) given more than once (e.g. "
-                          f"{first['group']} at {first['t_start_s']:g} s): the decision "
+                          f"{first['group']} at {_start(first['t_start_s'])} s): the decision "
                           "history takes the rows of one seed of one cell")
     # by row position: a frame's own index may repeat (frames joined by pd.concat)
     order = predictions.reset_index(drop=True).sort_values(["group", "t_start_s"],
@@ -395,9 +403,9 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
         if twice.any():
             first = frame.loc[twice.to_numpy(), key].iloc[0]
             raise ConfigError(f"soft_vote: {int(twice.sum())} window(s) given more than once "
-                              f"in a member (e.g. {first['run']} at {first['t_start_s']!s} s, "
-                              f"seed {first['seed']}, fold {first['fold']}): give the rows of "
-                              "one cell per member")
+                              f"in a member (e.g. {first['run']} at "
+                              f"{_start(first['t_start_s'])} s, seed {first['seed']}, fold "
+                              f"{first['fold']}): give the rows of one cell per member")
     w = (np.full(len(members), 1.0 / len(members)) if weights is None
          else normalised_weights(weights, len(members)))
     total = np.zeros((len(base), len(cols)))

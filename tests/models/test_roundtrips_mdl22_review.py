@@ -243,3 +243,18 @@ def test_cnn_scaling_comes_from_the_training_runs_without_the_early_stopping_run
     np.testing.assert_array_equal(model.validation_groups_, np.unique(groups[va]))
     np.testing.assert_allclose(model.mean_[:, 0], X[tr].mean(axis=(0, 2)), atol=1e-6)
     np.testing.assert_allclose(model.scale_[:, 0], X[tr].std(axis=(0, 2)), rtol=1e-6)
+
+
+def test_a_start_read_as_text_is_named_in_the_refusal_of_a_nan_probability():
+    """A NaN probability beside a start read as text ('0.0', e.g. from an object column)
+    raised a bare ValueError "Unknown format code 'g'" while the refusal was being written."""
+    from terrain.errors import NonFiniteInputError
+    from terrain.models.compare import history_predictions, soft_vote
+
+    one = _member([0.9, np.nan, 0.6]).assign(t_start_s="0.0")
+    with pytest.raises(NonFiniteInputError, match="r2 at 0.0 s"):
+        soft_vote([one], ["a", "b"])
+    with pytest.raises(NonFiniteInputError, match="r2 at 0.0 s"):
+        history_predictions(one, ["a", "b"], 2)
+    with pytest.raises(NonFiniteInputError, match="r2 at 2 s"):
+        history_predictions(one.assign(t_start_s=2.0), ["a", "b"], 2)
