@@ -258,3 +258,22 @@ def test_a_start_read_as_text_is_named_in_the_refusal_of_a_nan_probability():
         history_predictions(one, ["a", "b"], 2)
     with pytest.raises(NonFiniteInputError, match="r2 at 2 s"):
         history_predictions(one.assign(t_start_s=2.0), ["a", "b"], 2)
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_tie_of_held_out_log_loss_goes_to_the_first_weight_vector(seed):
+    """Two identical members tie every vector with its mirror (0.5 p + 0.5 p is p exactly):
+    the weights are the first of the tied vectors in simplex_grid's order."""
+    from terrain.models.ensemble import simplex_grid
+
+    X, y = _data(seed, n=48)
+    groups = y * 100 + (np.arange(48) // 9)
+    members = [("lr", LogisticRegression(max_iter=200)),
+               ("et", ExtraTreesClassifier(n_estimators=5, random_state=0)),
+               ("lr2", LogisticRegression(max_iter=200))]
+    ens = SoftVotingEnsemble(members, weight_step=0.5, inner_splits=3).fit(X, y, groups)
+    grid = [tuple(w) for w in simplex_grid(3, 0.5)]
+    best = min(ens.weight_scores_.values())
+    tied = [w for w in grid if ens.weight_scores_[w] <= best + 1e-12]
+    assert len(tied) >= 2
+    assert tuple(ens.weights_) == tied[0]
