@@ -548,9 +548,9 @@ def tracked_run(experiment: str, run_name: str | None = None,
     run_name : str, optional
         Human-readable run name.
     params : mapping, optional
-        Parameters logged at start (with ``code_version``).
+        Parameters logged at start (with ``code_version``, which is this function's to set).
     tags : mapping, optional
-        Extra tags (``code_version`` is always set).
+        Extra tags (``code_version`` is always set, by this function).
     announce : bool
         Print where the run is (stdout) when it starts.
 
@@ -563,9 +563,17 @@ def tracked_run(experiment: str, run_name: str | None = None,
     ConfigError
         A store that cannot be used (:func:`check_store`), a SQLite store that names no
         database file (``sqlite:///``, ``sqlite:///:memory:``: kept in memory and lost at
-        exit), or ``experiment`` deleted in it, before any run is opened.
+        exit), ``experiment`` deleted in it, or ``params`` or ``tags`` naming
+        ``code_version`` (the run's tag and parameter would disagree), before any run is
+        opened.
     """
     import mlflow
+
+    for where, given in (("params", params), ("tags", tags)):
+        if given and "code_version" in given:
+            raise ConfigError(f"tracked_run sets code_version itself: {where} names it "
+                              f"({given['code_version']!r:.60}), which would tag the run with "
+                              "one code version and parametrise it with another")
 
     uri = tracking_uri()
     if uri.partition("://")[0] == "sqlite" and sqlite_database(uri) is None:
