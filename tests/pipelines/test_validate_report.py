@@ -55,8 +55,8 @@ def test_validate_out_writes_every_printed_table(tmp_path, monkeypatch, capsys):
     assert validate.main(argparse.Namespace(report="fake", quick=True, out=out)) == 0
     printed = capsys.readouterr().out
     text = out.read_text()
-    assert text.startswith("### First\n\n| case | x |\n|---|---|\n| a | 0.5 |\n\n(")
-    assert "### Second\n\n| n |\n|---|\n| 3 |\n\n(" in text and "Long" not in text
+    assert text.startswith("### First\n\n| case | x |\n|---|---|\n| a | 0.5 |\n\n")
+    assert "### Second\n\n| n |\n|---|\n| 3 |\n" in text and "Long" not in text
     assert text.index("### First") < text.index("### Second")
     assert all(line in printed for line in text.splitlines())
 
