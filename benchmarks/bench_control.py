@@ -33,7 +33,7 @@ from pipelines.arguments import positive_integer
 from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import TractionControlConfig, TractionState, traction_control_step
 from terrain.slip import sae_slip
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 WHEEL_RADIUS_M = 0.165
 DT_S = 0.01
@@ -109,6 +109,8 @@ def main() -> int:
     parser.add_argument("--chunk", type=positive_integer, default=50, help="steps per timed chunk")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     if args.chunk > args.steps:     # no whole chunk to time: every figure would be inf
         parser.error(f"argument --chunk: {args.chunk} steps per chunk, more than --steps "
                      f"{args.steps}")

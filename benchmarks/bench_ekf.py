@@ -39,7 +39,7 @@ from terrain.estimation.agrimaro import AgriMaRoModel, estimate_agrimaro
 from pipelines.validation.harness import FINE_ENCODER, data_driven_settings, simulate_agrimaro
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: Terrain and scenario of the simulated long run.
 LONG_RUN = ("GRASS", "random")
@@ -130,6 +130,8 @@ def main() -> int:
     parser.add_argument("--repeats", type=positive_integer, default=3)
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     try:        # the long run's simulation is checked before anything is timed
         SimConfig(vehicle="agrimaro", terrains=(LONG_RUN[0],), scenario=LONG_RUN[1],
                   duration_s=60.0 * args.minutes, sensors=FINE_ENCODER)

@@ -39,7 +39,7 @@ from terrain.models.cv import fit_with_groups, inference_ms_per_window, iter_spl
 from terrain.models.experiment import ExperimentConfig, load_windows
 from terrain.models.registry import (MAX_CNN_SEEDS, MODELS, ModelConfig, cnn_seeds_for,
                                      make_model)
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def _reference_ms(repeats: int = 200) -> float:
@@ -87,6 +87,7 @@ def main() -> int:
     parser.add_argument("--cnn-seeds", type=integer_up_to(MAX_CNN_SEEDS), default=1,
                         help="networks averaged per CNN (models holding a CNN only)")
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     ws = load_windows(ExperimentConfig(dataset="borealtc"))
     y = ws.labels.astype(str)
     train, test = next(iter_splits("grouped", y, ws.groups, 0))

@@ -53,7 +53,7 @@ from terrain.serving.evaluation import model_stream_names
 from terrain.serving.pyfunc import save_model
 from terrain.serving import load_stream_model
 from terrain.serving.recipes import RECIPES, fit_stream_model
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def request_bodies(runs, streams, request_s: float, count: int, seed: int = 0) -> list[bytes]:
@@ -202,6 +202,8 @@ def main() -> int:
                         help="largest long request body, bytes (the server's limit: 8 MB)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     runs = load_dataset("borealtc")
     # a model read with --model is not --kind's: its own channels choose the streams sent,
     # and its folder names it in the output and the MLflow run

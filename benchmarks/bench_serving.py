@@ -55,7 +55,7 @@ from terrain.serving import (CataloguePeakTargets, StreamConfig, StreamService,
 from terrain.serving.evaluation import (concatenated_streams, model_stream_names,
                                         recipe_stream_names)
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def _pushes(service, run):
@@ -172,6 +172,8 @@ def main() -> int:
                         help="decisions not timed")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     runs = load_dataset("borealtc")
     if args.model:
         try:

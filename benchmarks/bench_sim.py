@@ -25,7 +25,7 @@ from pipelines.reference_workload import sort_reference_ms as reference_ms
 from terrain.errors import ConfigError
 from terrain.sim import SimConfig, parse_terrain_list, simulate
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: Simulated seconds of each vehicle's untimed warm-up run (the first simulation of a
 #: process pays lazy imports and numba cache loads, 0.2-0.25 s on the 2-core machine).
@@ -41,6 +41,8 @@ def main() -> int:
                         help="comma-separated terrain sequence")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     duration = 60.0 * args.minutes
     try:        # the simulator's checks (names, longest run, each vehicle's shortest) first
         configs = [SimConfig(vehicle=vehicle, terrains=parse_terrain_list(args.terrains),

@@ -45,7 +45,7 @@ from pipelines.arguments import positive_integer
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.learned import SLIP_OUTPUTS, SlipRegressor
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 from terrain.vehicles import HUSKY
 
 
@@ -57,6 +57,8 @@ def main() -> None:
     parser.add_argument("--singles", type=positive_integer, default=200)
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     spec = SlipDataSpec(terrains=("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS"),
                         scenarios=("straight_accel", "orchard", "slope_turn", "random"),
                         seeds=(0, 1))

@@ -111,6 +111,9 @@ def main() -> int:
     parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        from terrain.tracking import require_store
+        require_store()
     t0 = time.perf_counter()
     rows = [row for kind in args.models for device in args.devices
             for row in device_rows(kind, device, args.seeds, args.threads)]

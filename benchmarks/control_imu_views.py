@@ -34,7 +34,7 @@ from terrain.control.closed_loop import default_gains
 from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import compare, run_grid
 from terrain.sim import SCENARIO_NAMES
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: (vehicle, kind) compared by default: every IMU view of the two vehicles' estimators
 KINDS = (("agrimaro", "ekf-vo"), ("agrimaro", "ekf-vo-full-imu"),
@@ -66,6 +66,7 @@ def main() -> int:
     parser.add_argument("--seeds", nargs="+", type=seed_value, action=DistinctSeeds,
                         default=[0, 1, 2])
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     vehicle_of = {k: v for v, ks in ESTIMATORS.items() for k in ks}
     with tracked_run("terrain-benchmark", "control-imu-views", vars(args)) as run:
         tables = []

@@ -43,7 +43,7 @@ from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import ENSEMBLES, ModelConfig, ensemble_member_kinds, make_model
 from terrain.serving.recipes import extra_trees, run_balanced_weights
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 class RunBalancedWheelTrees(ClassifierMixin, BaseEstimator):
@@ -150,6 +150,8 @@ def main() -> int:
     parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     compare = CompareConfig()
     rows, fit_s = [], {}
     for seed in args.seeds:

@@ -31,7 +31,7 @@ from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import fit_with_groups, iter_splits
 from terrain.models.ensemble import aligned_proba
 from terrain.models.registry import ModelConfig, make_model
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def _fold(ws, labels, groups, classes, dataset, seed, fold, train, test, threads):
@@ -71,6 +71,7 @@ def main() -> int:
                         help="joblib workers over folds")
     parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     config = CompareConfig(datasets=(args.dataset,), signals=("all",), windows_s=(2.0,))
     ws, labels, groups = cell_windows(Cell("ensemble", "all", 2.0, args.dataset, 0),
                                       config.single_run_blocks)[:3]

@@ -50,7 +50,7 @@ from terrain.audit.frames import MANOEUVRES
 from terrain.audit.physics import PhysicsComparisonSettings, alternate_split, paired_frames
 from terrain.errors import ConfigError
 from terrain.io.shipped import load_dataset
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 from terrain.vehicles.icr import icr_expansion_factor
 
 
@@ -235,6 +235,8 @@ def main() -> int:
                     help="PNG of the figure (default docs/physics_v2_ceiling[_vulpi].png)")
     ap.add_argument("--no-mlflow", action="store_true", help="do not log to MLflow")
     args = ap.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     suffix = "" if args.dataset == "borealtc" else f"_{args.dataset}"
     args.out = args.out or f"docs/physics_v2_ceiling{suffix}.csv"
     args.figure = args.figure or f"docs/physics_v2_ceiling{suffix}.png"

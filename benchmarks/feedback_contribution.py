@@ -38,7 +38,7 @@ from terrain.control.desired_slip import build_slip_table
 from terrain.errors import ConfigError
 from terrain.terramechanics import get_terrain
 from terrain.sim import SCENARIO_NAMES
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: metrics of :func:`terrain.control.closed_loop.loop_metrics` kept per run
 KEPT = ("slip_rmse", "peak_slip", "time_to_speed_s", "energy_j_per_m")
@@ -112,6 +112,8 @@ def main() -> int:
     parser.add_argument("--out", type=output_dir, default=Path("out/feedback_contribution"))
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     try:
         decided = decided_labels(args.decided) or [(t, t) for t in args.terrains]
         for name in {t for pair in decided for t in pair}:

@@ -34,7 +34,7 @@ from terrain.models.compare import Cell, CompareConfig, cell_windows, score_rows
 from terrain.models.cv import cross_validate
 from terrain.models.registry import (ENSEMBLES, MODELS, ModelConfig, ensemble_member_kinds,
                                      make_model)
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: Equal-weight votes scored when all their members were cross-validated.
 VOTES = {kind: ensemble_member_kinds(ModelConfig(kind)) for kind in ENSEMBLES}
@@ -110,6 +110,8 @@ def main() -> int:
     parser.add_argument("--figure", type=output_file, default=None, help="write the figure (PNG)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     # with 10 folds some folds' test runs lack a class: their per-fold recall is undefined
     # (the pooled figures here do not use it)
     warnings.filterwarnings("ignore", message="y_pred contains classes not in y_true")

@@ -26,7 +26,7 @@ from terrain.sim import parse_terrain_list
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import PHYSICS_VERSIONS
 from terrain.terramechanics import get_terrain
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 from terrain.vehicles import get_vehicle
 
 #: physics step, s (the simulator's default 100 Hz)
@@ -84,6 +84,8 @@ def main() -> int:
     parser.add_argument("--terrains", type=_terrains, default="ASPHALT,GRASS,SANDY_LOAM,SNOW,ICE")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     last = int(round(1.0 / STEP_S))
     metrics = {}
     print("physics | terrain | displacement mm | speed over the last second mm/s")

@@ -30,7 +30,7 @@ from terrain.estimation.consistency import chi2_test, nees
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
 from terrain.slip.physics import PhysicsSlipSettings
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 TERRAINS = ("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS")
 
@@ -101,6 +101,7 @@ def main() -> int:
     parser.add_argument("--settings", default="[{}]", help="JSON list of filter overrides")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     for option, parse in (("--seeds", _seeds), ("--settings", _settings)):
         try:        # both before the runs are simulated (minutes when not cached)
             parse(getattr(args, option[2:]))

@@ -48,7 +48,7 @@ from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.estimate import BATCH_FUSION, estimate_skid_steer_slip_run
 from terrain.slip.evaluation import SLID_OFF_FACTOR
 from terrain.sim import SCENARIO_NAMES
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def settings(bounds, base=BATCH_FUSION) -> dict:
@@ -226,6 +226,7 @@ def main() -> int:
                              "ax, ay, wz)")
     parser.add_argument("--cache-dir", default="out/slip_cache")
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     if args.measured_terrains:      # a terrain with no run selected none, silently
         held = {run.terrain for run in read_shipped("borealtc") if "imu" in run.streams}
         missing = sorted(set(args.measured_terrains) - held)

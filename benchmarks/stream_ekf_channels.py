@@ -55,7 +55,7 @@ from terrain.models.cv import cross_validate
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.evaluation import held_out_folds, pool_scores, score_smoothing
 from terrain.serving.smoothing import SmoothingConfig
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 WINDOW_S, HOP_S, RATE_HZ = 2.0, 0.5, 100.0
 ARMS = ("all", "all+ekf", "all+windowed-ekf")
@@ -156,6 +156,8 @@ def main() -> int:
                              "0.5 trains as the dense recipes of terrain stream-eval)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     if args.window_cv:
         return window_cv(args.seeds, not args.no_mlflow)
     runs = [r for r in load_dataset("borealtc") if {"imu", "wheels"} <= set(r.streams)]

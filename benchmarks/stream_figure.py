@@ -36,7 +36,7 @@ from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamConfig, StreamService
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.serving.targets import TableTargets
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 HOP_S = 0.5
 
@@ -141,6 +141,7 @@ def main() -> int:
                         default=list(DEFAULT_RECIPES.values()))
     parser.add_argument("--out", type=output_file, default=Path("docs/streaming_example.png"))
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     runs = load_dataset("borealtc")
     results, t0 = {}, time.perf_counter()
     for kind in args.kinds:

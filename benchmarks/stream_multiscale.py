@@ -42,7 +42,7 @@ from terrain.serving.evaluation import (encode_stream_scores, held_out_folds, po
                                         raw_decisions, score_smoothing, seed_accuracies)
 from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 HOP_S = 0.5
 SHORT, LONG = "all-ensemble-dense-no-speed-1s", "all-ensemble-dense-no-speed"
@@ -79,6 +79,8 @@ def main() -> int:
                     "times are used (default: %(default)s)")
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     short, long = args.members
     if short == long:
         ap.error(f"--members: two different recipes, got {short} twice")

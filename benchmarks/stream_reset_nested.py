@@ -56,7 +56,7 @@ from terrain.serving.evaluation import (held_out_folds, pool_scores, raw_decisio
                                         recipe_stream_names, score_smoothing)
 from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 HOP_S = 0.5
 #: the service's default rule (forward filter, dwell 10 s, power 0.5, no reset)
@@ -197,6 +197,8 @@ def main() -> int:
                     help="pool these JSON files of earlier runs instead of training")
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     start = time.perf_counter()
     if args.merge:
         args.kind, args.inner_folds, rows = merged_rows(args.merge)

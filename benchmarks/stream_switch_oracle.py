@@ -41,7 +41,7 @@ from terrain.serving.evaluation import (filter_sequence, held_out_folds, pool_sc
                                         recipe_stream_names, score_stream, truth_at)
 from terrain.serving.recipes import RECIPES, fit_stream_model
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 HOP_S = 0.5
 THETAS = (0.8, 0.9, 0.95)
@@ -146,6 +146,8 @@ def main() -> int:
     ap.add_argument("--seeds", type=seed_value, nargs="+", action=DistinctSeeds, default=[0, 1, 2])
     ap.add_argument("--no-mlflow", action="store_true")
     args = ap.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     recipe = RECIPES[args.kind]
     need = recipe_stream_names(recipe)
     runs = load_dataset("borealtc")

@@ -31,7 +31,7 @@ import numpy as np
 from pipelines.arguments import DistinctSeeds, positive_number, probability, seed_value
 from terrain.io.shipped import load_dataset
 from terrain.serving.evaluation import held_out_folds, truth_at
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def window_shares(segments, hop_s: float, window_s: float) -> tuple[int, int, int, int]:
@@ -78,6 +78,8 @@ def main() -> int:
                         help="a measured settled-window accuracy to bound (optional)")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     runs = load_dataset("borealtc")
     totals = np.zeros(4, dtype=int)
     pieces = []

@@ -35,7 +35,7 @@ from terrain.models.cv import iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.metrics import window_metrics
 from terrain.models.svm import SVMConfig, make_svm
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def expected_calibration_error(proba: np.ndarray, correct: np.ndarray, n_bins: int = 10
@@ -117,6 +117,8 @@ def main() -> int:
                         default=[0, 1, 2])
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     warnings.filterwarnings("ignore", message="y_pred contains classes not in y_true")
     config = ExperimentConfig(dataset="borealtc")
     ws = load_windows(config)

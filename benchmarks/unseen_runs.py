@@ -34,7 +34,7 @@ from pipelines.train import DEFAULT_MODELS, DEFAULT_SIGNALS, DEFAULT_TRAIN_HOP_S
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, fit_pipeline, load_windows
 from terrain.models.metrics import run_majority_accuracy, window_metrics
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 
 def main() -> int:
@@ -46,6 +46,7 @@ def main() -> int:
                         help="torch threads per CNN fit")
     parser.add_argument("--out", type=output_dir, required=True)
     args = parser.parse_args()
+    require_store()   # a store it cannot use stops it now, not after the work
     default = DEFAULT_MODELS[args.dataset]
     runs = load_dataset(args.dataset)
     ws = load_windows(ExperimentConfig(dataset=args.dataset), runs=runs)

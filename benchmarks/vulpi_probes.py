@@ -49,7 +49,7 @@ from pipelines.arguments import DistinctSeeds, output_file, seed_value
 from terrain.models.cv import grouped_units, iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
 from terrain.models.svm import make_svm
-from terrain.tracking import tracked_run
+from terrain.tracking import require_store, tracked_run
 
 #: Band width of the current spectra, Hz (the IMU bands' width, WindowFeatures default)
 CURRENT_BAND_WIDTH_HZ = 2.5
@@ -244,6 +244,8 @@ def main() -> int:
     parser.add_argument("--out", type=output_file, default=None, help="write the table as CSV here")
     parser.add_argument("--no-mlflow", action="store_true")
     args = parser.parse_args()
+    if not args.no_mlflow:   # a store it cannot use stops it now, not after the work
+        require_store()
     warnings.filterwarnings("ignore", message="y_pred contains classes not in y_true")
     scores = pd.concat([score_variants(args.seeds), borealtc_scaler_check(args.seeds)],
                        ignore_index=True)

@@ -524,6 +524,34 @@ def store_lock(uri: str) -> Iterator[None]:
         lock.release()
 
 
+def require_store() -> str:
+    """Refuse at once the store in force when :func:`tracked_run` would refuse it.
+
+    For a program that logs only at the end of long work (a benchmark): called before the
+    work, a store it cannot use stops it then, not after minutes or hours of computing.
+
+    Returns
+    -------
+    str
+        The store in force (:func:`tracking_uri`).
+
+    Raises
+    ------
+    ConfigError
+        A store that cannot be used (:func:`check_store`), or a SQLite store that names no
+        database file (``sqlite:///``, ``sqlite:///:memory:``: kept in memory and lost at
+        exit).
+    """
+    uri = tracking_uri()
+    if uri.partition("://")[0] == "sqlite" and sqlite_database(uri) is None:
+        # (SQLAlchemy's in-memory or temporary database: the runs are gone at exit)
+        raise ConfigError(f"MLflow tracking store {uri} names no database file: its runs would "
+                          "be lost when the command ends; set MLFLOW_TRACKING_URI to "
+                          "sqlite:///<file> or unset it for sqlite:///<current folder>/mlflow.db")
+    check_store(uri)
+    return uri
+
+
 @contextmanager
 def tracked_run(experiment: str, run_name: str | None = None,
                 params: Mapping[str, Any] | None = None,
@@ -575,13 +603,7 @@ def tracked_run(experiment: str, run_name: str | None = None,
                               f"({given['code_version']!r:.60}), which would tag the run with "
                               "one code version and parametrise it with another")
 
-    uri = tracking_uri()
-    if uri.partition("://")[0] == "sqlite" and sqlite_database(uri) is None:
-        # (SQLAlchemy's in-memory or temporary database: the runs are gone at exit)
-        raise ConfigError(f"MLflow tracking store {uri} names no database file: its runs would "
-                          "be lost when the command ends; set MLFLOW_TRACKING_URI to "
-                          "sqlite:///<file> or unset it for sqlite:///<current folder>/mlflow.db")
-    check_store(uri)
+    uri = require_store()
     with store_lock(uri):
         client = mlflow.MlflowClient(tracking_uri=uri)
         exp_id = _experiment_id(client, experiment, uri)
