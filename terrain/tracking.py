@@ -257,6 +257,14 @@ def _as_float(value) -> float:
         return math.inf if value > 0 else -math.inf
 
 
+#: Characters a tag value holds in MLflow (``mlflow.utils.validation.MAX_TAG_VAL_LENGTH``);
+#: MLflow cuts a longer one.
+TAG_LIMIT = 8000
+#: Artifact listing every non-finite metric name when the tag cannot hold them all.
+NON_FINITE_FILE = "non_finite_metrics.txt"
+_MORE_NON_FINITE = ",..."
+
+
 @dataclass(frozen=True)
 class TrackedRun:
     """Handle on an open MLflow run: thin typed wrappers over MLflow's client API.
@@ -279,6 +287,7 @@ class TrackedRun:
     experiment: str
     uri: str
     client: Any = field(repr=False, compare=False)
+    _non_finite: set = field(default_factory=set, init=False, repr=False, compare=False)
 
     def log_params(self, params: Mapping[str, Any]) -> None:
         """Log parameters.
@@ -296,7 +305,9 @@ class TrackedRun:
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
         """Log numeric metrics; non-finite values (and integers beyond the float range) are
         skipped and listed in a tag (``non_finite_metrics``: the names of every call so far,
-        sorted).
+        sorted). Where the list is longer than a tag holds (:data:`TAG_LIMIT` characters),
+        the tag lists the first whole names and ends ``,... N more in
+        non_finite_metrics.txt``, an artifact listing every name, one a line.
 
         Parameters
         ----------
@@ -326,10 +337,23 @@ class TrackedRun:
         now_ms = int(time.time() * 1000)
         self.client.log_batch(self.run_id, metrics=[Metric(k, v, now_ms, step or 0)
                                                     for k, v in good.items()])
-        if bad:   # added to those of earlier calls, which the tag keeps
+        if bad:   # added to those of earlier calls, which the tag (or its file) keeps
             before = self.client.get_run(self.run_id).data.tags.get("non_finite_metrics")
-            names = sorted(set(bad) | set(before.split(",") if before else ()))
-            self.client.set_tag(self.run_id, "non_finite_metrics", ",".join(names))
+            listed = (before or "").partition(_MORE_NON_FINITE)[0]
+            self._non_finite.update(listed.split(",") if listed else ())
+            self._non_finite.update(bad)
+            names = sorted(self._non_finite)
+            text = ",".join(names)
+            if len(text) > TAG_LIMIT:     # MLflow would cut the tag, mid-name
+                self.client.log_text(self.run_id, "\n".join(names) + "\n", NON_FINITE_FILE)
+
+                def more(n_kept: int) -> str:
+                    return f"{_MORE_NON_FINITE} {len(names) - n_kept} more in {NON_FINITE_FILE}"
+                n = 0                     # the most whole names that fit beside the count
+                while len(",".join(names[:n + 1]) + more(n + 1)) <= TAG_LIMIT:
+                    n += 1
+                text = ",".join(names[:n]) + more(n)
+            self.client.set_tag(self.run_id, "non_finite_metrics", text)
 
     def log_table(self, frame: pd.DataFrame, name: str) -> None:
         """Log a DataFrame as a CSV artifact.

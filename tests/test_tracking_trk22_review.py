@@ -41,3 +41,29 @@ def test_tag_and_param_code_version_agree(store):
     assert logged.data.tags["code_version"] == logged.data.params["code_version"] \
         == code_version()
     assert logged.data.tags["note"] == "x" and logged.data.params["alpha"] == "1"
+
+
+def test_non_finite_metrics_beyond_the_tag_limit_are_all_listed(store):
+    # 600 non-finite metrics listed 20,000 characters: MLflow cut the tag to 8,000 (a name
+    # cut in half at its end, the rest lost) and a later call merged that cut name back
+    from mlflow.utils.validation import MAX_TAG_VAL_LENGTH
+
+    from terrain.tracking import TAG_LIMIT
+
+    assert TAG_LIMIT == MAX_TAG_VAL_LENGTH
+    first = {f"online.SNOW.wz.held-out.gain_{i:04d}": float("nan") for i in range(600)}
+    with tracked_run("trk22-nf", announce=False) as run:
+        run.log_metrics({**first, "ok": 1.0})
+        run.log_metrics({"zz_last": float("inf")})
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    logged = client.get_run(run.run_id)
+    tag = logged.data.tags["non_finite_metrics"]
+    assert len(tag) <= MAX_TAG_VAL_LENGTH
+    every = sorted([*first, "zz_last"])
+    listed, _, rest = tag.partition(",...")
+    assert listed.split(",") == every[:len(listed.split(","))]      # whole names, in order
+    assert rest == f" {len(every) - len(listed.split(','))} more in non_finite_metrics.txt"
+    path = client.download_artifacts(run.run_id, "non_finite_metrics.txt", str(store))
+    with open(path) as f:
+        assert f.read().splitlines() == every
+    assert logged.data.metrics == {"ok": 1.0}
