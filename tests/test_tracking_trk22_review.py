@@ -67,3 +67,15 @@ def test_non_finite_metrics_beyond_the_tag_limit_are_all_listed(store):
     with open(path) as f:
         assert f.read().splitlines() == every
     assert logged.data.metrics == {"ok": 1.0}
+
+
+def test_a_second_handle_on_the_run_keeps_the_names_the_tag_lists(store):
+    # the names of earlier calls come from the tag, not only from the handle's memory
+    from terrain.tracking import TrackedRun
+
+    with tracked_run("trk22-nf2", announce=False) as run:
+        run.log_metrics({"b": float("nan")})
+        other = TrackedRun(run.run_id, run.experiment, run.uri, run.client)
+        other.log_metrics({"a": float("-inf")})
+    tags = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id).data.tags
+    assert tags["non_finite_metrics"] == "a,b"
