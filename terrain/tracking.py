@@ -257,6 +257,9 @@ def _as_float(value) -> float:
         return math.inf if value > 0 else -math.inf
 
 
+#: Characters a parameter value holds in MLflow
+#: (``mlflow.utils.validation.MAX_PARAM_VAL_LENGTH``); MLflow cuts a longer one.
+PARAM_LIMIT = 6000
 #: Characters a tag value holds in MLflow (``mlflow.utils.validation.MAX_TAG_VAL_LENGTH``);
 #: MLflow cuts a longer one.
 TAG_LIMIT = 8000
@@ -292,6 +295,10 @@ class TrackedRun:
     def log_params(self, params: Mapping[str, Any]) -> None:
         """Log parameters.
 
+        A value longer than MLflow keeps (:data:`PARAM_LIMIT` characters; MLflow would cut
+        it with only a log warning) is logged whole as the artifact ``params/<name>.txt``;
+        the parameter holds its beginning and ``... (N characters in params/<name>.txt)``.
+
         Parameters
         ----------
         params : mapping of str to any
@@ -299,8 +306,15 @@ class TrackedRun:
         """
         from mlflow.entities import Param
 
-        self.client.log_batch(self.run_id, params=[Param(str(k), str(v))
-                                                   for k, v in params.items()])
+        logged = []
+        for k, v in params.items():
+            name, text = str(k), str(v)
+            if len(text) > PARAM_LIMIT:
+                self.client.log_text(self.run_id, text, f"params/{name}.txt")
+                note = f"... ({len(text)} characters in params/{name}.txt)"
+                text = text[:PARAM_LIMIT - len(note)] + note
+            logged.append(Param(name, text))
+        self.client.log_batch(self.run_id, params=logged)
 
     def log_metrics(self, metrics: Mapping[str, float], step: int | None = None) -> None:
         """Log numeric metrics; non-finite values (and integers beyond the float range) are

@@ -79,3 +79,26 @@ def test_a_second_handle_on_the_run_keeps_the_names_the_tag_lists(store):
         other.log_metrics({"a": float("-inf")})
     tags = mlflow.MlflowClient(tracking_uri=tracking_uri()).get_run(run.run_id).data.tags
     assert tags["non_finite_metrics"] == "a,b"
+
+
+def test_a_parameter_longer_than_mlflow_keeps_is_kept_whole_in_a_file(store):
+    # a 6,999-character value was cut to 6,000 by MLflow with only a log warning: the run's
+    # parameter was not the value it ran with, and nothing said so in the run
+    from mlflow.utils.validation import MAX_PARAM_VAL_LENGTH
+
+    from terrain.tracking import PARAM_LIMIT
+
+    assert PARAM_LIMIT == MAX_PARAM_VAL_LENGTH
+    value = ",".join(f"run_{i:05d}" for i in range(700))        # 6,999 characters
+    with tracked_run("trk22-long", announce=False, params={"runs": value, "short": 1}) as run:
+        pass
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    params = client.get_run(run.run_id).data.params
+    assert params["short"] == "1"
+    assert len(params["runs"]) <= PARAM_LIMIT
+    head, _, note = params["runs"].partition("...")
+    assert value.startswith(head) and note == " (6999 characters in params/runs.txt)" \
+        or pytest.fail(params["runs"][-80:])
+    path = client.download_artifacts(run.run_id, "params/runs.txt", str(store))
+    with open(path) as f:
+        assert f.read() == value
