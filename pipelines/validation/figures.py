@@ -107,15 +107,17 @@ def binned_nis(t_s: np.ndarray, nis: np.ndarray, dof: np.ndarray, bin_s: float =
     -------
     pandas.DataFrame
         One row per bin holding an accepted row: ``t_s`` (bin centre, s), ``nis_per_dof``,
-        ``dof`` (summed), ``lower, upper`` (interval of ``nis_per_dof``).
+        ``dof`` (summed), ``lower, upper`` (interval of ``nis_per_dof``); no row for no
+        step.
     """
     t_s, nis, dof = (np.asarray(a, dtype=float) for a in (t_s, nis, dof))
     used = (dof > 0) & np.isfinite(nis)
-    frame = pd.DataFrame({"bin": np.floor((t_s[used] - t_s[0]) / bin_s), "nis": nis[used],
+    origin = float(t_s[0]) if t_s.size else 0.0     # (no step: no bin, not an IndexError)
+    frame = pd.DataFrame({"bin": np.floor((t_s[used] - origin) / bin_s), "nis": nis[used],
                           "dof": dof[used]}).groupby("bin").sum()
     tail = 0.5 * (1.0 - probability)
     k = frame["dof"].to_numpy()
-    return pd.DataFrame({"t_s": t_s[0] + (frame.index.to_numpy() + 0.5) * bin_s,
+    return pd.DataFrame({"t_s": origin + (frame.index.to_numpy() + 0.5) * bin_s,
                          "nis_per_dof": frame["nis"].to_numpy() / k, "dof": k,
                          "lower": stats.chi2.ppf(tail, k) / k,
                          "upper": stats.chi2.ppf(1.0 - tail, k) / k})

@@ -63,3 +63,14 @@ def test_validate_out_draws_the_reports_figure_beside_the_tables(report, figure,
     assert image.ndim == 3 and image.shape[1] > min_aspect * image.shape[0]
     assert image.shape[0] > 250
     assert np.ptp(image[..., :3]) > 0.5       # drawn, not blank
+
+
+def test_binned_nis_of_no_step_is_an_empty_table():
+    """binned_nis on a filter of no step raised a bare IndexError from t_s[0] (trk22's
+    left-alone); it now gives no bin, with the table's columns, as a run of steps with no
+    accepted row does."""
+    empty = binned_nis(np.zeros(0), np.zeros(0), np.zeros(0))
+    none_accepted = binned_nis(np.arange(3.0), np.full(3, np.nan), np.zeros(3))
+    assert len(empty) == len(none_accepted) == 0
+    assert list(empty.columns) == list(none_accepted.columns) == [
+        "t_s", "nis_per_dof", "dof", "lower", "upper"]
