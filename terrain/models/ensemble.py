@@ -24,7 +24,7 @@ from sklearn.metrics import log_loss
 from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError, holds_booleans
+from terrain.errors import ConfigError, duplicated, holds_booleans, listed
 from terrain.models.cv import class_keeping_split, fit_with_groups, restored_on_failure
 
 
@@ -207,7 +207,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            No member (``estimators`` empty); fixed ``weights`` not one per member,
+            No member (``estimators`` empty), or two members of one name; fixed ``weights``
+            not one per member,
             boolean, negative, non-finite or all 0 (:func:`normalised_weights`); weights to choose
             with fewer runs (``groups``) than ``inner_splits``, or every class with fewer
             windows than ``inner_splits``, or where every inner split
@@ -229,6 +230,10 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         if len(self.estimators) == 0:
             raise ConfigError(f"{type(self).__name__} needs at least one member "
                               "(estimators: a list of (name, estimator)), got none")
+        twice = duplicated(name for name, _ in self.estimators)
+        if twice:   # (the logged weight_<name> of the two collapsed into one)
+            raise ConfigError(f"{type(self).__name__}: member name(s) {listed(twice)} given "
+                              "twice; name each member once")
         y = np.asarray(y)
         # X.shape of an array or sparse matrix; np.shape would call an array-like's
         # __array_function__ (scikit-learn's _NotAnArray refuses it)

@@ -277,3 +277,17 @@ def test_a_tie_of_held_out_log_loss_goes_to_the_first_weight_vector(seed):
     tied = [w for w in grid if ens.weight_scores_[w] <= best + 1e-12]
     assert len(tied) >= 2
     assert tuple(ens.weights_) == tied[0]
+
+
+def test_a_member_name_given_twice_is_refused():
+    """A hand-built SoftVotingEnsemble took two members of one name (mdl22's left-alone):
+    fit_pipeline's logged weight_<name> entries collapsed into one; the fit now refuses it
+    (ConfigError naming it) and leaves the ensemble unfitted."""
+    from terrain.errors import ConfigError
+    X, y = _data(0, n=30)
+    ens = SoftVotingEnsemble([("m", LogisticRegression(max_iter=200)),
+                              ("m", ExtraTreesClassifier(n_estimators=5, random_state=0))],
+                             weights=(1, 1))
+    with pytest.raises(ConfigError, match=r"member name\(s\) \['m'\] given twice"):
+        ens.fit(X, y)
+    assert not hasattr(ens, "weights_")
