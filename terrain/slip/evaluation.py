@@ -118,8 +118,8 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
         Returns an unfitted estimator with ``fit(X, Y)`` and ``predict(X)``.
     X : pandas.DataFrame, shape (n, n_features)
         Window features.
-    Y : ndarray, shape (n, k)
-        Targets.
+    Y : array-like, shape (n, k)
+        Targets (a nested list too).
     train, test : ndarray of bool, shape (n,)
         Disjoint window masks (grouped by run by the caller).
 
@@ -140,6 +140,7 @@ def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray
     """
     train = _window_mask("fit_predict", "train", train, len(X))
     test = _window_mask("fit_predict", "test", test, len(X))
+    Y = np.asarray(Y)     # (a list: a bare AttributeError on Y.shape, TypeError on Y[mask])
     if np.ndim(Y) < 1 or len(Y) != len(X):
         raise ShapeError(f"fit_predict: Y must have one row per window of X ({len(X)}), got "
                          f"shape {np.shape(Y)}")
@@ -646,8 +647,8 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
         Returns an unfitted estimator.
     X : pandas.DataFrame, shape (n, n_features)
         Window features.
-    Y : ndarray, shape (n, k)
-        Targets.
+    Y : array-like, shape (n, k)
+        Targets (a nested list too).
     groups : ndarray, shape (n,)
         Group of each window.
     train, test : ndarray of bool, shape (n,)
@@ -681,6 +682,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     # bare TypeError sorting the groups)
     refuse_missing("leave_one_out", "groups", groups, "group(s)",
                    "every window belongs to the group it is left out with")
+    Y = np.asarray(Y)     # (a list: a bare AttributeError on Y.shape)
     out = np.full(Y.shape, np.nan)
     for g in np.unique(groups[test]):
         m = groups == g

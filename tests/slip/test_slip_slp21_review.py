@@ -357,3 +357,20 @@ def test_learned_constant_chi_is_the_median_of_the_turning_targets():
     assert np.array_equal(m.predict(X), m.predict_reference(X))
     y[:, 2] = np.nan
     assert np.all(_fit(X, y, groups).predict(X)[:, 2] == 1.0)
+
+
+def test_fit_predict_and_leave_one_out_take_targets_as_a_nested_list():
+    """Y given as a list of (left, right) pairs was a bare AttributeError (Y.shape) or
+    TypeError (Y[mask]) in fit_predict and leave_one_out (slp21's left-alone); it is read as
+    the array it holds, with the same predictions."""
+    from terrain.slip.evaluation import fit_predict, leave_one_out
+
+    rng = np.random.default_rng(3)
+    n = 12
+    X = pd.DataFrame({"f": rng.normal(size=n)})
+    Y = rng.normal(size=(n, 2))
+    groups = np.array(list("AABBCC") * 2)
+    test = np.arange(n) % 2 == 0
+    for call in (lambda y: fit_predict(_Recorder, X, y, ~test, test),
+                 lambda y: leave_one_out(_Recorder, X, y, groups, ~test, test)):
+        np.testing.assert_array_equal(call(Y.tolist()), call(Y))
