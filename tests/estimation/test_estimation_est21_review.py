@@ -164,3 +164,23 @@ def test_equal_latencies_of_every_stream_equal_timestamps_moved_by_them():
     np.testing.assert_allclose(late.t_s, moved.t_s, rtol=0, atol=1e-12)
     assert late.counts == moved.counts
     np.testing.assert_allclose(late.x, moved.x, rtol=0, atol=1e-9)
+
+
+@settings(max_examples=10, deadline=None)
+@given(seed=st.integers(0, 2**32 - 1), turn=st.floats(0.05, 0.3))
+def test_on_a_frame_with_a_dead_gyro_the_icr_factor_stays_at_its_prior(seed, turn):
+    # est21's left-alone: skid_steer_on_frame (the EKF channels' path) with wz all NaN moved
+    # ln(chi) on the wheels alone as estimate_skid_steer did before fad1e9c; one rule now
+    import pandas as pd
+
+    from terrain.estimation.skid_steer import SkidSteerModel, skid_steer_on_frame
+
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(300) * 0.02, 10)
+    frame = pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
+                          "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size), "wz": np.nan})
+    res = skid_steer_on_frame(frame)
+    j = res.state_names.index("log_icr_chi")
+    np.testing.assert_array_equal(res.state("log_icr_chi"), SkidSteerModel().x0[j])
+    live = skid_steer_on_frame(frame.assign(wz=turn / 0.28))     # a gyro: chi is estimated
+    assert not np.array_equal(live.state("log_icr_chi"), res.state("log_icr_chi"))
