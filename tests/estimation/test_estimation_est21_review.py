@@ -90,6 +90,16 @@ def test_an_imu_latency_equals_imu_timestamps_moved_by_it():
     np.testing.assert_allclose(latency.x, moved.x, rtol=0, atol=1e-9)
 
 
+def _turning_wheels(seed: int, turn: float):
+    """300 noisy wheel samples at 50 Hz of a steady turn (vel_l, vel_r = 0.7 -/+ turn m/s)."""
+    import pandas as pd
+
+    rng = np.random.default_rng(seed)
+    t = np.round(np.arange(300) * 0.02, 10)
+    return pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
+                         "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size)})
+
+
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1), turn=st.floats(0.1, 0.6))
 def test_without_imu_the_icr_factor_and_the_gyro_bias_stay_at_their_prior(seed, turn):
@@ -101,12 +111,9 @@ def test_without_imu_the_icr_factor_and_the_gyro_bias_stay_at_their_prior(seed, 
     from terrain.estimation.skid_steer import SkidSteerModel, estimate_skid_steer
     from terrain.run import Run
 
-    rng = np.random.default_rng(seed)
-    t = np.round(np.arange(300) * 0.02, 10)
-    wheels = pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
-                           "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size)})
+    wheels = _turning_wheels(seed, turn)
     prior = SkidSteerModel()
-    dead_gyro = pd.DataFrame({"t_s": t, "wz": np.nan})     # an IMU whose wz is all NaN
+    dead_gyro = pd.DataFrame({"t_s": wheels["t_s"], "wz": np.nan})     # an IMU whose wz is all NaN
     for streams in ({"wheels": wheels}, {"wheels": wheels, "imu": dead_gyro}):
         res = estimate_skid_steer(Run("sim/TEST/00", "sim", "TEST", streams))
         for name in ("log_icr_chi", "gyro_bias"):
@@ -171,14 +178,9 @@ def test_equal_latencies_of_every_stream_equal_timestamps_moved_by_them():
 def test_on_a_frame_with_a_dead_gyro_the_icr_factor_stays_at_its_prior(seed, turn):
     # est21's left-alone: skid_steer_on_frame (the EKF channels' path) with wz all NaN moved
     # ln(chi) on the wheels alone as estimate_skid_steer did before fad1e9c; one rule now
-    import pandas as pd
-
     from terrain.estimation.skid_steer import SkidSteerModel, skid_steer_on_frame
 
-    rng = np.random.default_rng(seed)
-    t = np.round(np.arange(300) * 0.02, 10)
-    frame = pd.DataFrame({"t_s": t, "vel_l": 0.7 - turn + 0.03 * rng.normal(size=t.size),
-                          "vel_r": 0.7 + turn + 0.03 * rng.normal(size=t.size), "wz": np.nan})
+    frame = _turning_wheels(seed, turn).assign(wz=np.nan)
     res = skid_steer_on_frame(frame)
     j = res.state_names.index("log_icr_chi")
     np.testing.assert_array_equal(res.state("log_icr_chi"), SkidSteerModel().x0[j])
