@@ -460,8 +460,7 @@ def planned_decisions(run: Run, window_s: float, hop_s: float) -> int:
         An upper bound of the number of decisions (0 when the span is shorter than a
         window).
     """
-    first = min(float(f[TIME].iloc[0]) for f in run.streams.values())
-    last = max(float(f[TIME].iloc[-1]) for f in run.streams.values())
+    first, last = _time_bounds_s(run)
     # the decision times as the service's clock computes them (the first window's end plus
     # a whole number of hops) against the newest sample: the floor of the span alone
     # planned one fewer where the span's rounding fell short (4.1 - 0.1 = 3.9999999999999996)
@@ -489,5 +488,11 @@ def time_span_s(run: Run) -> float:
     float
         Time span, s.
     """
-    return (max(float(f[TIME].iloc[-1]) for f in run.streams.values())
-            - min(float(f[TIME].iloc[0]) for f in run.streams.values()))
+    first, last = _time_bounds_s(run)
+    return last - first
+
+
+def _time_bounds_s(run: Run) -> tuple[float, float]:
+    """The first sample time of any stream of ``run`` and the last of any, s."""
+    return (min(float(f[TIME].iloc[0]) for f in run.streams.values()),
+            max(float(f[TIME].iloc[-1]) for f in run.streams.values()))
