@@ -33,9 +33,9 @@ from scipy.linalg.lapack import dgesv
 
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, TimeStepError,
                             config_numbers, refuse_booleans)
-from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, MIN_LOAD_FRACTION,
+from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
-                                check_physics, contact_forces,
+                                check_physics, contact_forces, floored_contacts,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 reach_chord_contact, step_traction_coefficient,
                                 specific_force_m_s2, transferred_normal_loads,
@@ -168,9 +168,10 @@ class PhysicsResult:
         Physics v2 with load transfer only (None without: v1, or a vehicle with no
         centre-of-gravity height): physics steps on which each contact's transferred normal
         load was floored at :data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load
-        (the transfer asked for less: a wheel about to lift); the loads are then rescaled to
-        the static total, so a floored load ends within that rescaling of the floor
-        (:func:`terrain.sim.forces.transferred_normal_loads`).
+        (the transfer asked for less: a wheel about to lift; a load asked for exactly at
+        the floor is not counted); the loads are then rescaled to the static total, so a
+        floored load ends within that rescaling of the floor, and a load the rescaling
+        alone takes below the floor is not counted (:func:`terrain.sim.forces.floored_contacts`).
     """
 
     t_s: np.ndarray
@@ -554,9 +555,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # gravity alone, so a vehicle that starts on a grade starts with its static transfer
     acc_lt = specific_force_m_s2(np.zeros(2), gravity_force(mass, slope_rad, 0.0), mass)
     normal = None
-    # steps on which each contact's transferred load sat at the floor (counted, not hidden)
-    floor_n = MIN_LOAD_FRACTION * layout.normal_load_n
-    load_floor = np.zeros(len(floor_n), dtype=np.int64) if cog_h > 0 else None
+    # steps on which each contact's transferred load was floored (counted, not hidden)
+    load_floor = np.zeros(len(layout.normal_load_n), dtype=np.int64) if cog_h > 0 else None
     motor_of = layout.motor_of
     m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
     m_inv = np.diag(1.0 / np.diag(m_mat))
@@ -617,7 +617,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         if cog_h > 0:
             normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
                                               mass, cog_h, acc_lt[0], acc_lt[1])
-            load_floor += normal <= floor_n
+            # the loads the transfer asked below the floor (not those the rescaling took
+            # below it)
+            load_floor += floored_contacts(layout.normal_load_n, layout.x_m, layout.y_m,
+                                           mass, cog_h, acc_lt[0], acc_lt[1])
         contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
                                  side_factor[ti], hold_slip[ti])
         gravity = gravity_force(mass, slope_rad, pose[2])

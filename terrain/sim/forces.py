@@ -167,7 +167,18 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
     ndarray, shape (c,)
         N.
     """
-    # dot products and ndarray.sum instead of np.sum: this runs once per integrator step
+    loads = np.maximum(_unfloored_loads(static_load_n, x_m, y_m, mass_kg, cog_height_m,
+                                        accel_x_m_s2, accel_y_m_s2),
+                       MIN_LOAD_FRACTION * static_load_n)
+    return loads * (static_load_n.sum() / loads.sum())
+
+
+def _unfloored_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np.ndarray,
+                     mass_kg: float, cog_height_m: float, accel_x_m_s2: float,
+                     accel_y_m_s2: float) -> np.ndarray:
+    """Loads the transfer of :func:`transferred_normal_loads` asks for, before its floor and
+    rescaling, N (same arguments)."""
+    # dot products instead of np.sum: this runs once per integrator step
     sx = float(x_m @ x_m)
     sy = float(y_m @ y_m)
     mh = mass_kg * cog_height_m
@@ -176,8 +187,40 @@ def transferred_normal_loads(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np
         loads = loads - (mh * accel_x_m_s2 / sx) * x_m
     if sy > 0:
         loads = loads - (mh * accel_y_m_s2 / sy) * y_m
-    loads = np.maximum(loads, MIN_LOAD_FRACTION * static_load_n)
-    return loads * (static_load_n.sum() / loads.sum())
+    return loads
+
+
+def floored_contacts(static_load_n: np.ndarray, x_m: np.ndarray, y_m: np.ndarray,
+                     mass_kg: float, cog_height_m: float, accel_x_m_s2: float,
+                     accel_y_m_s2: float) -> np.ndarray:
+    """Contacts whose load :func:`transferred_normal_loads` floors.
+
+    Those whose transfer asks for less than :data:`MIN_LOAD_FRACTION` of their static load
+    (a wheel about to lift). A load asked for exactly at the floor is not floored, and
+    neither is one that only the rescaling to the static total takes below the floor (the
+    floor of another contact raised the total).
+
+    Parameters
+    ----------
+    static_load_n : ndarray, shape (c,)
+        Static normal loads, N.
+    x_m, y_m : ndarray, shape (c,)
+        Contact positions relative to the centre of gravity, m.
+    mass_kg : float
+        Vehicle mass, kg.
+    cog_height_m : float
+        Height of the centre of gravity, m.
+    accel_x_m_s2, accel_y_m_s2 : float
+        Body-frame specific force at the centre of gravity (:func:`specific_force_m_s2`),
+        m/s^2.
+
+    Returns
+    -------
+    ndarray of bool, shape (c,)
+        True where the load was raised to the floor.
+    """
+    return _unfloored_loads(static_load_n, x_m, y_m, mass_kg, cog_height_m, accel_x_m_s2,
+                            accel_y_m_s2) < MIN_LOAD_FRACTION * static_load_n
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,55 @@
+"""Boundary review of the simulator (sim22): limits reached exactly, counts at their edges."""
+
+from dataclasses import replace
+from types import MappingProxyType
+
+import numpy as np
+
+import terrain.sim.dynamics as dynamics
+from terrain.sim.dynamics import integrate
+from terrain.sim.forces import LOAD_TRANSFER, MIN_LOAD_FRACTION
+from terrain.terramechanics.catalogue import get_terrain
+from terrain.vehicles import get_vehicle
+
+HUSKY = get_vehicle("husky")
+
+
+def test_a_load_only_rescaled_below_the_floor_is_not_counted_as_floored(monkeypatch):
+    """load_floor_steps counts the steps on which a contact's transferred load was floored
+    (the transfer asked for less than MIN_LOAD_FRACTION of its static load). It counted the
+    loads found at or below the floor *after* the rescaling to the static total: a Husky with
+    its CoG at 0.6 m accelerating into a turn asked at step 6 for 0.0507 of the static load
+    on its front right wheel (above the floor: not floored), the front left's floor raised the
+    total and the rescaling put the front right at 0.0494, and the step was counted. The
+    flags now come from the transfer itself (contact 2: 3 steps, not 4)."""
+    monkeypatch.setattr(dynamics, "LOAD_TRANSFER", MappingProxyType(
+        {"husky": replace(LOAD_TRANSFER["husky"], cog_height_m=0.6)}))
+    t = np.arange(0.0, 4.0, 0.01)
+    cmd = np.zeros((len(t), 3))
+    cmd[t < 2.0, 0] = 1.0
+    cmd[:, 2] = np.where(t < 3.0, 1.0, -1.0)
+    p = integrate(HUSKY, HUSKY.contact_geometry(), (get_terrain("ASPHALT"),), 1e9, t, cmd,
+                  0.0, 1.0, physics="v2")
+    np.testing.assert_array_equal(p.load_floor_steps, [9, 0, 3, 10])
+
+
+def test_load_transfer_flags_exactly_the_loads_the_floor_raised():
+    """A transfer that asks for exactly MIN_LOAD_FRACTION of a contact's static load leaves it
+    there (not floored: the floor raised nothing); one ulp more transfer floors it; a load
+    that only the rescaling takes below the floor is not flagged."""
+    from terrain.sim.forces import floored_contacts, transferred_normal_loads
+    static = np.full(4, 100.0)
+    x = np.array([0.25, -0.25, 0.25, -0.25])
+    y = np.array([0.25, 0.25, -0.25, -0.25])
+    front = x > 0
+    # dN_front = -(m h a_x / sum x^2) x = -95 N: the front loads at 5 N = 0.05 x 100 N exactly
+    args = (static, x, y, 95.0, 1.0)
+    np.testing.assert_array_equal(transferred_normal_loads(*args, 1.0, 0.0),
+                                  [5.0, 195.0, 5.0, 195.0])
+    assert not floored_contacts(*args, 1.0, 0.0).any()
+    np.testing.assert_array_equal(floored_contacts(*args, np.nextafter(1.0, 2.0), 0.0), front)
+    # front left floored (-75.5 N asked), front right (5.5 N asked) rescaled to 4.58 N by
+    # the front left's floor: not floored
+    mixed = (135.0 / 95.0, 40.5 / 95.0)
+    assert transferred_normal_loads(*args, *mixed)[2] < MIN_LOAD_FRACTION * static[2]
+    np.testing.assert_array_equal(floored_contacts(*args, *mixed), [True, False, False, False])
