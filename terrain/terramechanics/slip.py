@@ -287,5 +287,7 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray | float, slip: np.ndarray |
     """
     rim = np.asarray(rim_speed_m_s, dtype=float)
     q = np.where(rim >= 0.0, 1.0, -1.0) * np.asarray(slip, dtype=float)
-    v = np.where(q >= 0.0, rim * (1.0 - q), rim / (1.0 + np.maximum(q, -1.0 + 1e-12)))
+    # 1 + q as it is inside the domain (a floor at 1e-12 returned omega r 1e12 for every
+    # q within 1e-12 of -1); NaN where q <= -1 (no division by 0 or a negative 1 + q)
+    v = np.where(q >= 0.0, rim * (1.0 - q), rim / np.where(q <= -1.0, np.nan, 1.0 + q))
     return np.where((q > 1.0) | (q <= -1.0), np.nan, v)
