@@ -97,7 +97,10 @@ def physics_steps(duration_s: float, dt_s: float) -> int:
     Returns
     -------
     int
-        ``round(duration_s / dt_s)``.
+        ``round(duration_s / dt_s)``: a duration that is not a whole number of steps ends
+        at the nearest step (1.004 s at 100 Hz: 100 steps, the grid's last time 1.0 s;
+        1.006 s: 101 steps, 1.01 s), a duration exactly half-way between two steps at the
+        even count (Python's ``round``: 10.5 steps of 1/64 s give 10, 11.5 give 12).
     """
     return int(round(float(duration_s) / float(dt_s)))
 

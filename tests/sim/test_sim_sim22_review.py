@@ -86,3 +86,28 @@ def test_online_encoder_reports_the_batch_count_rate_from_the_first_step():
                                     p.torque[k]))
     wheels = online.take(0.5, np.zeros(3)).wheels
     np.testing.assert_allclose(wheels[:, 1:], batch, atol=1e-12)
+
+
+def test_physics_steps_rounds_to_the_nearest_step_and_half_way_to_even():
+    """Pins the rounding of a duration to physics steps (documented in physics_steps)."""
+    from terrain.sim.scenarios import physics_steps
+    assert physics_steps(1.004, 0.01) == 100 and physics_steps(1.006, 0.01) == 101
+    dt = 1.0 / 64.0                             # exact in binary: exact half-way cases
+    assert physics_steps(10.5 * dt, dt) == 10
+    assert physics_steps(11.5 * dt, dt) == 12
+    assert physics_steps(np.nextafter(10.5 * dt, 1.0), dt) == 11
+
+
+@pytest.mark.parametrize("duration, end, rows", [(1.004, 1.0, 101), (1.006, 1.01, 102)])
+def test_a_duration_between_steps_ends_at_the_rounded_step_and_keeps_its_last_sample(
+        duration, end, rows):
+    """The run ends at the nearest physics step (not before the duration asked for when that
+    step lies after it), its metadata says so, and the 100 Hz streams hold that last step."""
+    from terrain.sim import SimConfig
+    from terrain.sim.simulate import simulate_with_physics
+    sim = simulate_with_physics(SimConfig(duration_s=duration, scenario="straight_accel"))
+    assert sim.physics.t_s[-1] == pytest.approx(end, abs=1e-12)
+    assert sim.run.meta["duration_s"] == pytest.approx(end, abs=1e-12)
+    for name in ("imu", "truth"):
+        t = sim.run.streams[name]["t_s"].to_numpy()
+        assert len(t) == rows and t[-1] == pytest.approx(end, abs=1e-12)
