@@ -14,8 +14,10 @@ at the physics rate and the inclination of the ground plane.
 ``spin``            spin in place at 0.6 rad/s, reversing every 8 s.
 ``random``          piecewise-constant random commands (2-6 s segments), acceleration-limited.
 
-Every command but ``straight_accel``'s ramp (which starts at 0 by itself) is rate-limited from
-rest: the vehicle starts standing and the command at t = 0 is 0.
+Every command but ``straight_accel``'s ramp (which is 0 at t = 0 by itself) is rate-limited
+from rest: the vehicle starts standing, and the command at t = 0 is one rate-limited step from
+0 (the limiter steps before the first sample: ``orchard`` 0.005 m/s and ``spin`` 0.015 rad/s
+at 100 Hz; ``tests/sim/test_scenarios.py``).
 """
 
 from __future__ import annotations

@@ -111,3 +111,15 @@ def test_a_duration_between_steps_ends_at_the_rounded_step_and_keeps_its_last_sa
     for name in ("imu", "truth"):
         t = sim.run.streams[name]["t_s"].to_numpy()
         assert len(t) == rows and t[-1] == pytest.approx(end, abs=1e-12)
+
+
+def test_the_first_command_is_one_rate_limited_step_from_rest():
+    """The scenarios' module docstring: at t = 0 each rate-limited command is one step of its
+    limit from 0 (not 0), straight_accel's ramp 0."""
+    from terrain.sim.scenarios import make_commands
+    rng = np.random.default_rng(0)
+    first = {name: make_commands(name, 10.0, 0.01, rng, 2.0, track_m=0.555).twist[0]
+             for name in ("straight_accel", "orchard", "spin")}
+    np.testing.assert_array_equal(first["straight_accel"], [0.0, 0.0, 0.0])
+    np.testing.assert_allclose(first["orchard"], [0.005, 0.0, 0.0], atol=1e-15)
+    np.testing.assert_allclose(first["spin"], [0.0, 0.0, 0.015], atol=1e-15)
