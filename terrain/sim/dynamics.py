@@ -128,6 +128,11 @@ def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
 class PhysicsResult:
     """Ground truth at every physics step (n steps, m motors).
 
+    Row ``k`` holds the state at the *end* of the step that starts at ``t_s[k]`` (the
+    command of ``t_s[k]`` applied for one step ``dt``), so the plant is one step ahead of
+    its time stamp: the first row is not the rest state (a known gap, kept so as not to
+    move the simulated runs: ``tests/sim/test_sim_sim22_review.py``, strict xfail).
+
     Parameters
     ----------
     t_s : ndarray, shape (n,)
