@@ -5,6 +5,8 @@ from types import MappingProxyType
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 import terrain.sim.dynamics as dynamics
 from terrain.sim.dynamics import integrate
@@ -142,3 +144,25 @@ def test_the_truth_at_t_0_is_the_vehicle_at_rest():
     assert first["t_s"] == 0.0
     for column in ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "omega_1", "omega_2"):
         assert first[column] == 0.0, column
+
+
+@settings(max_examples=200, deadline=None)
+@given(ax=st.floats(-60.0, 60.0), ay=st.floats(-60.0, 60.0), h=st.floats(0.0, 2.0))
+def test_floored_contacts_are_those_at_the_common_floor_ratio(ax, ay, h):
+    """Whatever the specific force: the loads keep the static total, every floored contact
+    ends at the same fraction of its static load (the floor times the rescaling), and every
+    contact left unfloored ends at or above that fraction (the floor is the least load)."""
+    from terrain.sim.forces import floored_contacts, transferred_normal_loads
+    geo = HUSKY.contact_geometry()
+    static = geo.load_share * HUSKY.mass_kg * 9.80665
+    x, y = geo.positions_m[:, 0].copy(), geo.positions_m[:, 1].copy()
+    loads = transferred_normal_loads(static, x, y, HUSKY.mass_kg, h, ax, ay)
+    floored = floored_contacts(static, x, y, HUSKY.mass_kg, h, ax, ay)
+    assert loads.sum() == pytest.approx(static.sum(), rel=1e-12)
+    ratio = loads / static
+    if floored.any():
+        np.testing.assert_allclose(ratio[floored], ratio[floored][0], rtol=1e-12)
+        assert ratio[floored][0] <= MIN_LOAD_FRACTION * (1 + 1e-12)
+        assert np.all(ratio[~floored] >= ratio[floored][0] * (1 - 1e-12))
+    else:
+        assert np.all(ratio >= MIN_LOAD_FRACTION * (1 - 1e-12))
