@@ -76,3 +76,22 @@ def test_rim_speed_branches_meet_at_zero_slip(v):
     assert np.isfinite(rim_speed_from_slip(1.0, np.nextafter(1.0, 0.0))[0])
     assert np.isnan(rim_speed_from_slip(1.0, 1.0)[0])
     assert rim_speed_from_slip(1.0, -1.0)[0] == 0.0
+
+
+@pytest.mark.parametrize("c1, c2, peak", [
+    (1.0, 2e6, 1e-5),        # between the first two points of traction_peak's grid
+    (1.0, 3e5, 5e-5),        # on its second point
+    (0.8, 1.0, 0.9),
+    (0.8, 1.0, 0.99),        # next to full slip, still an interior maximum
+    (1.2, 5.0, 0.4)])
+def test_burckhardt_peak_is_found_where_the_curve_peaks(c1, c2, peak):
+    """Burckhardt peaks at ``ln(c1 c2 / c3) / c2``; traction_peak finds it (and its mu) on
+    a 20001-point grid refined between the grid neighbours, however close to 0 or 1 (a
+    valid curve, mu(1) >= 0, peaks at ``ln(c2) / c2`` or later: large c2 near 0)."""
+    from terrain.terramechanics.traction import BurckhardtCurve, traction_peak
+    c3 = c1 * c2 * np.exp(-c2 * peak)
+    got = traction_peak(BurckhardtCurve(c1, c2, c3))
+    assert not got.monotonic
+    assert got.slip == pytest.approx(peak, abs=1e-7)
+    mu = c1 * -np.expm1(-c2 * peak) - c3 * peak
+    assert got.mu == pytest.approx(mu, rel=1e-12) and got.mu_max == got.mu
