@@ -12,7 +12,7 @@ import argparse
 
 import pandas as pd
 
-from features.windows import required_streams
+from features.windows import WindowConfig, required_streams
 from pipelines.arguments import input_folder, input_path, output_file
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
@@ -81,6 +81,9 @@ def main(args: argparse.Namespace) -> int:
     model, meta = _load(args.model, progress)
     runs = read_runs_path(args.runs_dir, labelled=False, progress=progress)
     window_s = float(meta["window_s"])
+    # the samples one window takes, as the model's windowing counts them (window_s * rate_hz
+    # rounded: 0.25 s at 50 Hz is 12 samples, 0.24 s, which a run of 12 fills)
+    window_samples = WindowConfig(window_s=window_s, rate_hz=float(meta["rate_hz"])).n_samples
     counts: dict = {"per_run": {}, "skipped_runs": [], "too_short_runs": [],
                     "streams": list(required_streams(meta["channels"]))}
     parts = []
@@ -110,7 +113,7 @@ def main(args: argparse.Namespace) -> int:
                                                                                0.0)),
                                          "between_windows_s": float(
                                              pred.attrs.get("between_windows_s", 0.0))}
-        if len(samples) / float(meta["rate_hz"]) < window_s:
+        if len(samples) < window_samples:
             counts["too_short_runs"].append(run.run_id)
         parts.append(pred)
     flagged = {r: int((p["flags"] != "").sum()) for r, p in

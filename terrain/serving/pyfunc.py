@@ -345,7 +345,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
         tail += counts["window_tail_s"]
         between += counts["between_windows_s"]
         if len(X) == 0:
-            if len(frame) < round(config.window_s * config.rate_hz):
+            if len(frame) < config.n_samples:
                 short.append(str(run_id))   # no window fits: named, not left out unsaid
             continue
         proba = pipeline.predict_proba(X)
