@@ -198,11 +198,15 @@ def _check_stream(stream: str, t: np.ndarray, v: np.ndarray, channels: Sequence[
             raise DataFormatError(f"stream {stream!r}: median step implies {rate:.4g} Hz, "
                                   f"outside its nominal {lo:g}-{hi:g} Hz (timestamps in s?)",
                                   where, tcol)
-    span = float(t[-1] - t[0]) if t.size else 0.0
-    if span < window_s:
-        shown = f"{span:.3g}"
-        if float(shown) >= window_s:  # 1.9999999 s would read "spans 2 s ... needs 2 s"
-            shown = f"{span:.10g}"
+    # long enough where the service's first decision, due one window after the first
+    # sample (t[0] + window_s, as its clock computes it), is not after the last sample: the
+    # span t[-1] - t[0] of a stream the service decides on fell short of one window on most
+    # clocks (2.3 - 0.3 is 1.9999999999999998)
+    if not t.size or t[0] + window_s > t[-1]:
+        span = float(t[-1] - t[0]) if t.size else 0.0
+        # 1.9999999 s would read "spans 2 s ... needs 2 s"
+        shown = next((text for text in (f"{span:.3g}", f"{span:.10g}")
+                      if float(text) < window_s), repr(span))
         raise DataFormatError(f"stream {stream!r} too short: it spans {shown} s over "
                               f"{t.size} sample(s); one window needs {window_s:g} s", where,
                               tcol)
@@ -280,7 +284,10 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     streams : Mapping[str, sequence of str]
         Stream name -> channels the model needs from it.
     window_s : float
-        Window length, s (each stream must span at least this).
+        Window length, s: each stream must span at least this, its last sample not before
+        its first plus ``window_s`` (computed so, as the service's clock computes its first
+        decision; the span ``t[-1] - t[0]`` may round below it: 2.3 - 0.3 is
+        1.9999999999999998).
     max_rows : int
         Largest accepted request, rows.
     where : str
