@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from features.windows import WindowConfig
+from terrain.errors import DataFormatError
 from terrain.run import Run
 from terrain.serving.pyfunc import predict_windows
 
@@ -110,3 +111,30 @@ def test_predict_counts_a_run_one_sample_short_of_a_window_as_too_short(
     assert code == 2
     assert "1 run(s) too short" in captured.out, captured.out
     assert "no window to predict" in captured.err
+
+
+def _aligned(t: np.ndarray) -> pd.DataFrame:
+    """Aligned wheel samples of one run at the stamps ``t``."""
+    return pd.DataFrame({"run": "r1", "t_s": t, "vel_l": 0.5 + 0 * t, "vel_r": 0.6 + 0 * t})
+
+
+def _windows(samples: pd.DataFrame, rate_hz: float = 50.0) -> pd.DataFrame:
+    return predict_windows(_Proba(), samples, ["vel_l", "vel_r"],
+                           WindowConfig(window_s=2.0, rate_hz=rate_hz), ["A", "B"])
+
+
+@pytest.mark.parametrize("rate_hz", [49.502, 50.498, 49.6, 50.4])
+def test_a_sample_rate_within_one_percent_of_the_models_is_taken(rate_hz):
+    """Within 1 % of the model's 50 Hz, as the docstring promises ("a median sample rate
+    more than 1 % off"): 49.502 Hz (0.996 % slow) was refused, its step being 1.006 %
+    longer than the model's period (the rule compared steps, not rates)."""
+    assert len(_windows(_aligned(np.arange(300) / rate_hz))) > 0
+
+
+@pytest.mark.parametrize("rate_hz", [50.503, 49.497, 50.6, 49.4])
+def test_a_sample_rate_more_than_one_percent_off_the_models_is_refused(rate_hz):
+    """More than 1 % off the model's 50 Hz: 50.503 Hz (1.006 % fast) was taken, its step
+    only 0.996 % shorter than the model's period."""
+    with pytest.raises(DataFormatError, match=rf"samples at {rate_hz:.3f} Hz; the model "
+                                              r"expects 50\.0 Hz"):
+        _windows(_aligned(np.arange(300) / rate_hz))
