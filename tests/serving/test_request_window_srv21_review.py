@@ -15,7 +15,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import DataFormatError
-from terrain.run import WHEEL_CHANNELS
+from terrain.run import IMU_CHANNELS, WHEEL_CHANNELS
 from terrain.serving.request import parse_request, planned_decisions
 from terrain.serving.served import ServedStreamModel, served_settings
 
@@ -77,3 +77,24 @@ def test_the_served_model_answers_a_request_of_exactly_one_window(wheel_served, 
     out = wheel_served.decide(_wheels(t))
     assert len(out) == 1 and not out["dropped"].iloc[0]
     assert out["t_s"].iloc[0] == t[0] + 2.0
+
+
+@pytest.mark.parametrize("stream, channels, top_hz", [("wheels", WHEEL_CHANNELS, 1000.0),
+                                                      ("imu", IMU_CHANNELS, 2000.0)])
+def test_a_stream_at_its_highest_nominal_rate_is_taken_one_beyond_refused(stream, channels,
+                                                                          top_hz):
+    """The nominal rates are a closed range (NOMINAL_RATE_HZ, "outside its nominal lo-hi
+    Hz"): its top is taken, 0.1 % above refused (a mutant excluding the top survived)."""
+    rng = np.random.default_rng(1)
+
+    def request(rate_hz):
+        t = np.arange(int(2.2 * rate_hz)) / rate_hz
+        return pd.DataFrame({"stream": stream, "t_s": t,
+                             **{c: (9.81 if c == "az" else 0.5)
+                                + 0.01 * rng.standard_normal(t.size) for c in channels}})
+
+    assert len(parse_request(request(top_hz), {stream: channels}, 2.0, 10**5)
+               .streams[stream]) == int(2.2 * top_hz)
+    with pytest.raises(DataFormatError, match=rf"implies {top_hz * 1.001:.4g} Hz, outside "
+                                              rf"its nominal \S+-{top_hz:g} Hz"):
+        parse_request(request(top_hz * 1.001), {stream: channels}, 2.0, 10**5)

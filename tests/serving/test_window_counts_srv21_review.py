@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 
 from features.windows import WindowConfig
-from terrain.errors import DataFormatError
+from terrain.errors import DataFormatError, TimestampError
 from terrain.run import Run
 from terrain.serving.pyfunc import predict_windows
 
@@ -138,3 +138,16 @@ def test_a_sample_rate_more_than_one_percent_off_the_models_is_refused(rate_hz):
     with pytest.raises(DataFormatError, match=rf"samples at {rate_hz:.3f} Hz; the model "
                                               r"expects 50\.0 Hz"):
         _windows(_aligned(np.arange(300) / rate_hz))
+
+
+def test_a_step_of_exactly_one_and_a_half_periods_is_no_hole():
+    """A step longer than 1.5 sample periods is a hole (refused); one of exactly 1.5 periods
+    is not (8 Hz: 0.1875 s, exact in binary), one a period longer is."""
+    steps = np.full(40, 0.125)
+    steps[20] = 0.1875
+    t = np.r_[0.0, np.cumsum(steps)]
+    assert np.diff(t)[20] * 8.0 == 1.5
+    assert len(_windows(_aligned(t), rate_hz=8.0)) == 2
+    steps[20] = 0.25
+    with pytest.raises(TimestampError, match="a step of 0.25 s, 1 step"):
+        _windows(_aligned(np.r_[0.0, np.cumsum(steps)]), rate_hz=8.0)
