@@ -98,3 +98,32 @@ def test_a_stream_at_its_highest_nominal_rate_is_taken_one_beyond_refused(stream
     with pytest.raises(DataFormatError, match=rf"implies {top_hz * 1.001:.4g} Hz, outside "
                                               rf"its nominal \S+-{top_hz:g} Hz"):
         parse_request(request(top_hz * 1.001), {stream: channels}, 2.0, 10**5)
+
+
+@settings(max_examples=25, deadline=None)
+@given(t0=st.one_of(st.floats(0.0, 1e5, allow_nan=False), st.floats(1.6e9, 1.8e9)),
+       step=st.sampled_from([0.05, 0.1, 0.125, 0.15]), extra=st.sampled_from([-1, 0, 1]))
+@example(t0=0.3, step=0.05, extra=0)
+def test_a_request_about_one_window_long_is_taken_iff_the_service_decides_on_it(
+        wheel_served, t0, step, extra):
+    """A wheel stream one sample short of, exactly, or one sample past one window, on any
+    clock: the served model answers it (its decisions as many as planned) exactly where
+    the service, given the same samples, decides; else the request is refused as too
+    short (never an answer of no decision, never a refusal of a stream decided on)."""
+    from terrain.run import Run
+    from terrain.serving import StreamService
+    from terrain.serving.replay import replay_run
+
+    t = t0 + np.arange(int(round(2.0 / step)) + 1 + extra) * step
+    frame = _wheels(t)
+    run = Run("request", "request", None, {"wheels": frame.drop(columns="stream")})
+    service = StreamService(wheel_served.model, wheel_served.targets, wheel_served.config)
+    due = len(replay_run(service, run, max_chunk=32))
+    try:
+        out = wheel_served.decide(frame)
+    except DataFormatError as exc:
+        assert "too short" in str(exc) and due == 0
+    else:
+        assert len(out) == due >= 1
+        parsed = parse_request(frame, WHEELS, 2.0, 10_000)
+        assert planned_decisions(parsed, 2.0, wheel_served.config.hop_s) == due
