@@ -107,7 +107,12 @@ def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float,
                           f"{[len(t) for t in times_s]} sample(s)") from None
     if t1 <= t0:
         return t0, 0
-    return t0, int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+    n = int(np.floor((t1 - t0) * rate_hz + 1e-9)) + 1
+    # a point the grid's own arithmetic puts at or before t1 is in: on an epoch clock
+    # (1.7e9 s) (t1 - t0) * rate_hz fell just short of k for a stream ending on t0 + k / rate
+    while n <= MAX_GRID_POINTS and t0 + n / rate_hz <= t1:
+        n += 1
+    return t0, n
 
 
 def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: float,

@@ -1,0 +1,29 @@
+"""Boundaries of the readers, the alignment and the plausibility rules (review io21): a value
+exactly at a limit, the grid's last point, counts at their bounds."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from terrain.io.align import overlap_grid, overlap_grid_tail
+
+
+@settings(max_examples=200, deadline=None)
+@given(t0=st.sampled_from([0.0, 0.1, 12345.678, 1.0e6, 1.7e9, 1.7e9 + 0.37]),
+       rate_hz=st.sampled_from([6.5, 10.0, 15.0, 33.3, 50.0, 100.0]),
+       k=st.integers(1, 100_000))
+def test_a_stream_ending_on_a_grid_point_keeps_that_point_on_an_epoch_clock(t0, rate_hz, k):
+    """The grid runs from the latest first sample to the earliest last one: a stream that
+    ends exactly on the grid's point ``t0 + k / rate_hz`` (the grid's own arithmetic) has
+    it as the grid's last point. On an epoch clock (1.7e9 s) the point was dropped for
+    about half of all ``k``: ``(t1 - t0) * rate_hz`` rounded just below ``k``."""
+    t1 = t0 + k / rate_hz
+    times = [np.array([t0, t1]), np.array([t0 - 1.0, t0 + 0.5 / rate_hz, t1 + 3.0])]
+    grid = overlap_grid(times, rate_hz)
+    assert grid.size == k + 1
+    assert grid[-1] == t1
+    # the streaming service's tail of the grid agrees: every point, the last included
+    tail, end = overlap_grid_tail(times, rate_hz, np.inf, 3)
+    assert end == k + 1 and np.array_equal(tail, grid[-3:])
