@@ -3,7 +3,10 @@ exactly at a limit, the grid's last point, counts at their bounds."""
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -27,3 +30,24 @@ def test_a_stream_ending_on_a_grid_point_keeps_that_point_on_an_epoch_clock(t0, 
     # the streaming service's tail of the grid agrees: every point, the last included
     tail, end = overlap_grid_tail(times, rate_hz, np.inf, 3)
     assert end == k + 1 and np.array_equal(tail, grid[-3:])
+
+
+@pytest.mark.parametrize("dataset, imu_hz, warned", [
+    ("borealtc", 110.0, False), ("borealtc", 90.0, False),     # exactly 10 % off: passes
+    ("borealtc", 110.5, True), ("borealtc", 89.5, True),
+    ("vulpi", 55.0, False), ("vulpi", 45.0, False)])
+def test_an_imu_rate_exactly_a_tenth_off_the_datasets_passes_both_ways(
+        tmp_path, synth_imu, synth_pro, write_run, dataset, imu_hz, warned):
+    """``terrain convert`` warns of an IMU rate *more than* 10 % off the dataset's: one
+    exactly 10 % above it (110 Hz for BorealTC's 100 Hz) was warned of, one exactly 10 %
+    below it (90 Hz) not (110 / 100 - 1 is 0.10000000000000009 in floating point)."""
+    from terrain.io.shipped import convert_dataset
+
+    write_run(tmp_path / "csv", "ASPHALT", "00", synth_imu(duration_s=4.0, rate_hz=imu_hz),
+              synth_pro(duration_s=4.0, rate_hz=10.0))
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.simplefilter("always")
+        entry = convert_dataset(tmp_path / "csv", dataset, tmp_path / "data")
+    assert entry["sampling_rates_hz"]["imu"] == imu_hz
+    said = [str(w.message) for w in seen if "IMU runs at" in str(w.message)]
+    assert bool(said) == warned
