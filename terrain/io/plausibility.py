@@ -195,6 +195,10 @@ STUCK_CURRENT_S = 20.0
 #: samples of one exact value a stuck stretch needs besides its duration (a slow stream's
 #: few repeats are not one)
 STUCK_MIN_SAMPLES = 10
+#: slack of the stuck rule's duration bound, s: a stretch lasting the limit to within the
+#: float rounding of its timestamps (1e-16 s of a clock from 0, 2.4e-7 s of an epoch
+#: clock at 1.7e9 s) lasts the limit
+STUCK_SLACK_S = 1e-6
 
 
 def stuck_limit_s(stream: str, channel: str) -> float | None:
@@ -239,9 +243,12 @@ def is_stuck(duration_s: float, n_samples: int, limit_s: float) -> bool:
     -------
     bool or numpy.ndarray
         ``duration_s >= limit_s`` and at least :data:`STUCK_MIN_SAMPLES` samples, per
-        stretch.
+        stretch; a duration short of the limit by at most :data:`STUCK_SLACK_S` (the
+        timestamps' rounding: 51 samples of a 50 Hz clock span 0.9999999999999998 s
+        for one start in six) counts as the limit.
     """
-    return (np.asarray(duration_s) >= limit_s) & (np.asarray(n_samples) >= STUCK_MIN_SAMPLES)
+    return ((np.asarray(duration_s) >= limit_s - STUCK_SLACK_S)
+            & (np.asarray(n_samples) >= STUCK_MIN_SAMPLES))
 
 
 #: median specific-force norm below which an accelerometer is in g (gravity reads 1 in g,

@@ -6,6 +6,7 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
+import pandas as pd
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -51,3 +52,23 @@ def test_an_imu_rate_exactly_a_tenth_off_the_datasets_passes_both_ways(
     assert entry["sampling_rates_hz"]["imu"] == imu_hz
     said = [str(w.message) for w in seen if "IMU runs at" in str(w.message)]
     assert bool(said) == warned
+
+
+@settings(max_examples=60, deadline=None)
+@given(rate_hz=st.sampled_from([10.0, 15.0, 50.0, 100.0]),
+       t0=st.sampled_from([0.0, 0.37, 1.7e9]), start=st.integers(0, 150))
+def test_a_stretch_lasting_exactly_the_stuck_limit_is_stuck_wherever_it_starts(
+        rate_hz, t0, start):
+    """Rule ``stuck_sensor`` counts a stretch of one exact value lasting at least
+    :data:`STUCK_IMU_S` (1 s, inclusive): 51 samples of a 50 Hz IMU span exactly 1 s. The
+    timestamps' float rounding decided it: stuck for 166 of 200 starting rows, not for
+    the other 34 (``t[b] - t[a]`` 0.9999999999999998 s); one sample fewer is never stuck."""
+    from terrain.io.plausibility import STUCK_IMU_S, stuck_stretches
+
+    n_steps = int(round(STUCK_IMU_S * rate_hz))
+    t = t0 + np.arange(400) / rate_hz
+    for samples, stuck in ((n_steps + 1, True), (n_steps, False)):
+        wz = 2.0 + np.sin(0.37 * np.arange(400))
+        wz[start:start + samples] = 0.5
+        found = stuck_stretches({"imu": pd.DataFrame({"t_s": t, "wz": wz})})
+        assert ("imu.wz" in found) == stuck
