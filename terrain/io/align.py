@@ -26,7 +26,8 @@ Method (recorded in the returned frame's ``attrs``):
 3. Every stream is then linearly interpolated onto the grid. The ~6.5 Hz (BorealTC) or
    ~15 Hz (Vulpi) wheel stream is thus interpolated between its samples.
 4. Grid points that fall inside a timestamp gap of any stream (a step longer than
-   ``gap_factor`` x its median step, see :mod:`terrain.io.measured`) are set to NaN, never
+   ``gap_factor`` x its median step, by more than the timestamps' rounding:
+   :func:`gap_steps`, see :mod:`terrain.io.measured`) are set to NaN, never
    interpolated across; the windowing step drops windows that contain them and counts them.
 
 The maths is NumPy-only (:func:`overlap_grid`, :func:`align_arrays`): the batch readers'
@@ -162,6 +163,34 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     return t0 + np.arange(max(end - n_last, 0), end) / rate_hz, end
 
 
+#: Slack of the gap rule, a fraction of its bound: a step within it of ``gap_factor`` x the
+#: median step is not longer than that. Timestamps carry float rounding (1e-16 of a clock
+#: from 0, 2.4e-7 s at an epoch clock's 1.7e9 s: up to 3e-5 of a 10 ms step's bound), which
+#: made two lost samples of a 10 Hz clock, a step of exactly three, a gap one time in five.
+GAP_SLACK = 1e-4
+
+
+def gap_steps(steps_s: np.ndarray, step_s: float, gap_factor: float) -> np.ndarray:
+    """Which time steps are gaps: longer than ``gap_factor`` x the usual step (the rule of
+    the readers and of the alignment), a step within :data:`GAP_SLACK` of that bound not.
+
+    Parameters
+    ----------
+    steps_s : numpy.ndarray
+        ``(m,)`` time steps, s (``numpy.diff`` of the timestamps).
+    step_s : float
+        The stream's usual (median) step, s.
+    gap_factor : float
+        A step longer than ``gap_factor`` x ``step_s`` is a gap (> 1).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(m,)`` bool: ``steps_s > gap_factor * step_s * (1 + GAP_SLACK)``.
+    """
+    return np.asarray(steps_s) > gap_factor * step_s * (1.0 + GAP_SLACK)
+
+
 def median_step(t_s: np.ndarray) -> float:
     """Median time step of increasing timestamps (the reference of the gap rule), s.
 
@@ -244,7 +273,7 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
     for k, (t, v) in enumerate(zip(times_s, values)):
         dt = np.diff(t)
         step = median_step(t) if steps_s is None else float(steps_s[k])
-        is_gap = dt > gap_factor * step
+        is_gap = gap_steps(dt, step, gap_factor)
         native = 1.0 / step
         if native > 1.5 * rate_hz:
             sos = signal.butter(4, 0.4 * rate_hz, fs=native, output="sos")

@@ -39,7 +39,7 @@ from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFile
                             NonFiniteError, NonNumericError, OrphanFileError, RaggedRowError,
                             TimestampError, UnreadableFileError, config_flags, config_integer,
                             duplicated, first_items)
-from terrain.io.align import check_gap_factor
+from terrain.io.align import check_gap_factor, gap_steps
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -250,10 +250,10 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
     t = out[TIME]
     _refuse_non_finite_time(t, path, next(c for c, n in mapping.items() if n == TIME), lines,
                             rows)
-    gap_steps = _check_time(t, path, gap_factor, report, lines)
+    is_gap = _check_time(t, path, gap_factor, report, lines)
     for col, name in mapping.items():
         if name != TIME and out[name].dtype != object:
-            out[name] = _repair_non_finite(out[name], t, gap_steps, path, col, max_repair_run,
+            out[name] = _repair_non_finite(out[name], t, is_gap, path, col, max_repair_run,
                                            report, name, lines)
     frame = pd.DataFrame(out)
     stream = STREAM_NAMES.get(kind, kind)
@@ -541,12 +541,12 @@ def _refuse_non_finite_time(t: np.ndarray, path: Path, col: str, lines: np.ndarr
                              f"{hint}", path, col, int(idx[0]), int(lines[idx[0]]))
 
 
-def _repair_non_finite(values: np.ndarray, t: np.ndarray, gap_steps: np.ndarray, path: Path,
+def _repair_non_finite(values: np.ndarray, t: np.ndarray, is_gap: np.ndarray, path: Path,
                        col: str, max_run: int, report: ReadReport, name: str,
                        lines: np.ndarray) -> np.ndarray:
     """Isolated non-finite samples of one channel, interpolated linearly in time between
     their finite neighbours; a burst, a run at the file's edge or one next to a timestamp gap
-    (``gap_steps``, :func:`_check_time`) is refused."""
+    (``is_gap``, :func:`_check_time`) is refused."""
     finite = np.isfinite(values)
     if finite.all():
         return values
@@ -564,8 +564,8 @@ def _repair_non_finite(values: np.ndarray, t: np.ndarray, gap_steps: np.ndarray,
             raise NonFiniteError("non-finite value at the edge of the file cannot be "
                                  "interpolated", path, col, int(s), int(lines[s]))
         # steps s-1 -> s ... e -> e+1: the neighbours the repair interpolates between
-        if gap_steps[s - 1:e + 1].any():
-            k = s - 1 + int(np.flatnonzero(gap_steps[s - 1:e + 1])[0])
+        if is_gap[s - 1:e + 1].any():
+            k = s - 1 + int(np.flatnonzero(is_gap[s - 1:e + 1])[0])
             raise NonFiniteError(f"non-finite value next to a timestamp gap ({t[k]:.10g} -> "
                                  f"{t[k + 1]:.10g} s) cannot be interpolated: gaps are never "
                                  "interpolated across", path, col, int(s), int(lines[s]))
@@ -583,7 +583,8 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
     Returns
     -------
     numpy.ndarray
-        ``(n - 1,)`` bool: whether each step is a gap (over ``gap_factor`` x the median).
+        ``(n - 1,)`` bool: whether each step is a gap (over ``gap_factor`` x the median,
+        :func:`terrain.io.align.gap_steps`).
     """
     dt = np.diff(t)
     if dt.size and (dt <= 0).any():
@@ -594,10 +595,10 @@ def _check_time(t: np.ndarray, path: Path, gap_factor: float, report: ReadReport
                              f"({bad.size} such row(s), at {first_items(lines[bad])}); "
                              "timestamps must increase strictly", path, "time", row,
                              int(lines[row]))
-    gap_steps = dt > gap_factor * float(np.median(dt)) if dt.size else np.zeros(0, bool)
-    for i in np.flatnonzero(gap_steps):
+    gaps = gap_steps(dt, float(np.median(dt)), gap_factor) if dt.size else np.zeros(0, bool)
+    for i in np.flatnonzero(gaps):
         report.gaps.append((float(t[i]), float(t[i + 1])))
-    return gap_steps
+    return gaps
 
 
 #: Compression suffixes of a run file that the readers do not open (named in the error).

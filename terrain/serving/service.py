@@ -82,7 +82,7 @@ import numpy as np
 from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError
-from terrain.io.align import align_arrays, overlap_grid_tail
+from terrain.io.align import align_arrays, gap_steps, overlap_grid_tail
 from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_flag,
                                      wheel_speed_in_kmh)
 from terrain.run import WHEEL_CHANNELS
@@ -383,16 +383,17 @@ class StreamService:
     def _holds_gap(self, ts: np.ndarray, step: float, first: float) -> bool:
         """Whether a stream's samples ``ts`` read for a window whose first grid point is
         ``first`` hold a gap: a step ending after ``first`` over ``gap_factor`` x the
-        stream's usual ``step``. Past a stream's first samples the median of its one or two
-        known steps is the gap itself: the smallest step read stands for the usual one when
-        fewer than three are read, and two samples read (one before the window, one after
-        it: none in it) are one gap."""
+        stream's usual ``step`` (the readers' rule, :func:`terrain.io.align.gap_steps`).
+        Past a stream's first samples the median of its one or two known steps is the gap
+        itself: the smallest step read stands for the usual one when fewer than three are
+        read, and two samples read (one before the window, one after it: none in it) are
+        one gap."""
         if len(ts) == 2:
             return True
         steps = np.diff(ts)
         if len(steps) < 3:
             step = min(step, float(steps.min()))
-        return bool((steps[ts[1:] > first] > self.config.gap_factor * step).any())
+        return bool(gap_steps(steps[ts[1:] > first], step, self.config.gap_factor).any())
 
     def _window(self, t: float) -> tuple[np.ndarray | None, float, set[str]]:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""

@@ -72,3 +72,44 @@ def test_a_stretch_lasting_exactly_the_stuck_limit_is_stuck_wherever_it_starts(
         wz[start:start + samples] = 0.5
         found = stuck_stretches({"imu": pd.DataFrame({"t_s": t, "wz": wz})})
         assert ("imu.wz" in found) == stuck
+
+
+def _lost_two(rate_hz: float, t0: float, k: int, n: int = 80) -> np.ndarray:
+    """Timestamps of an ``n``-sample clock at ``rate_hz`` from ``t0`` without samples
+    ``k + 1`` and ``k + 2``: one step of exactly three usual steps."""
+    return np.delete(t0 + np.arange(n) / rate_hz, [k + 1, k + 2])
+
+
+@settings(max_examples=80, deadline=None)
+@given(rate_hz=st.sampled_from([6.5, 10.0, 15.0, 50.0, 100.0]),
+       t0=st.sampled_from([0.0, 0.37, 1.7e9]), k=st.integers(3, 60))
+def test_a_step_of_exactly_gap_factor_usual_steps_is_no_gap(rate_hz, t0, k):
+    """A gap is a step *longer than* ``gap_factor`` x the median step: two lost samples make
+    a step of exactly 3 steps, no gap. The timestamps' float rounding decided it: at 10 Hz
+    from 0 one such step in five was a gap, its grid points NaN. A step a hundredth of a
+    step longer is one, in the alignment and in the readers' gap list alike."""
+    from terrain.io.align import align_arrays
+
+    for extra, gap in ((0.0, False), (0.01, True)):
+        t = _lost_two(rate_hz, t0, k)
+        t[k + 1:] += extra / rate_hz
+        v = np.sin(np.arange(t.size, dtype=float))[:, None]
+        grid = np.linspace(t[k], t[k + 1], 7)[1:-1]      # inside the long step
+        out = align_arrays([t], [v], grid, rate_hz, gap_factor=3.0)
+        assert np.isnan(out).all() == gap and np.isfinite(out).all() != gap
+
+
+@pytest.mark.parametrize("k", range(5, 20))
+def test_the_readers_list_no_gap_for_a_step_of_exactly_three_usual_steps(tmp_path, k):
+    """The readers' gap list follows the same rule: a 10 Hz wheel file that lost two
+    samples has no gap (it had one for k = 8, 9, 17, 18 ...), and no window is dropped."""
+    from terrain.io.measured import read_stream_csv
+
+    t = _lost_two(10.0, 0.0, k)
+    n = t.size
+    frame = pd.DataFrame({"time": t, "curL": 5.0 + np.sin(t), "curR": 5.0 + np.cos(t),
+                          "velL": 0.5 + 0.01 * np.sin(3 * t), "velR": 0.5 + 0.0 * t})
+    path = tmp_path / "pro_00.csv"
+    frame.to_csv(path, index=False, float_format="%.9g")
+    _, report = read_stream_csv(path, "pro")
+    assert report.gaps == [] and n == 78
