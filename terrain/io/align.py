@@ -5,9 +5,10 @@ Method (recorded in the returned frame's ``attrs``):
 1. The common clock is a uniform grid at ``rate_hz`` over the time span covered by *every*
    requested stream (latest start to earliest end), so no value is extrapolated.
 2. A stream sampled more than 1.5 times faster than the grid (the 100 Hz BorealTC IMU on a
-   50 Hz grid) is first low-pass filtered (4th-order Butterworth, zero phase, cut-off 0.4 x
-   ``rate_hz``), each gap-free segment on its own, so that resampling does not alias
-   vibration into the band of interest. A segment of 15 samples or fewer is padded by
+   50 Hz grid; by more than its timestamps' rounding, :data:`STEP_SLACK`) is first low-pass
+   filtered (4th-order Butterworth, zero phase, cut-off 0.4 x ``rate_hz``), each gap-free
+   segment on its own, so that resampling does not alias vibration into the band of
+   interest. A segment of 15 samples or fewer is padded by
    fewer samples than the filter's default (all but one), so it is filtered too. The odd
    extension (point reflection about each end sample) keeps a long segment's end values
    close for a stream at twice the grid rate (the 100 Hz IMU on the 50 Hz grid: a linear
@@ -163,16 +164,19 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     return t0 + np.arange(max(end - n_last, 0), end) / rate_hz, end
 
 
-#: Slack of the gap rule, a fraction of its bound: a step within it of ``gap_factor`` x the
-#: median step is not longer than that. Timestamps carry float rounding (1e-16 of a clock
-#: from 0, 2.4e-7 s at an epoch clock's 1.7e9 s: up to 3e-5 of a 10 ms step's bound), which
-#: made two lost samples of a 10 Hz clock, a step of exactly three, a gap one time in five.
-GAP_SLACK = 1e-4
+#: Slack of the bounds on a stream's time step, a fraction of the bound: a step within it
+#: of ``gap_factor`` x the median step is not longer than that (no gap), and a stream whose
+#: rate is within it of 1.5 x the grid's is not faster than that (not filtered).
+#: Timestamps carry float rounding (1e-16 of a clock from 0, 2.4e-7 s at an epoch clock's
+#: 1.7e9 s: up to 3e-5 of a 10 ms step's bound), which made two lost samples of a 10 Hz
+#: clock, a step of exactly three, a gap one time in five, and a 150 Hz stream on a 100 Hz
+#: grid filtered for nearly half of its clock starts.
+STEP_SLACK = 1e-4
 
 
 def gap_steps(steps_s: np.ndarray, step_s: float, gap_factor: float) -> np.ndarray:
     """Which time steps are gaps: longer than ``gap_factor`` x the usual step (the rule of
-    the readers and of the alignment), a step within :data:`GAP_SLACK` of that bound not.
+    the readers and of the alignment), a step within :data:`STEP_SLACK` of that bound not.
 
     Parameters
     ----------
@@ -186,9 +190,9 @@ def gap_steps(steps_s: np.ndarray, step_s: float, gap_factor: float) -> np.ndarr
     Returns
     -------
     numpy.ndarray
-        ``(m,)`` bool: ``steps_s > gap_factor * step_s * (1 + GAP_SLACK)``.
+        ``(m,)`` bool: ``steps_s > gap_factor * step_s * (1 + STEP_SLACK)``.
     """
-    return np.asarray(steps_s) > gap_factor * step_s * (1.0 + GAP_SLACK)
+    return np.asarray(steps_s) > gap_factor * step_s * (1.0 + STEP_SLACK)
 
 
 def median_step(t_s: np.ndarray) -> float:
@@ -275,7 +279,7 @@ def align_arrays(times_s: Sequence[np.ndarray], values: Sequence[np.ndarray],
         step = median_step(t) if steps_s is None else float(steps_s[k])
         is_gap = gap_steps(dt, step, gap_factor)
         native = 1.0 / step
-        if native > 1.5 * rate_hz:
+        if native > 1.5 * rate_hz * (1.0 + STEP_SLACK):   # (exactly 1.5 x: not filtered)
             sos = signal.butter(4, 0.4 * rate_hz, fs=native, output="sos")
             v = v.copy()
             gaps = np.flatnonzero(is_gap)

@@ -113,3 +113,22 @@ def test_the_readers_list_no_gap_for_a_step_of_exactly_three_usual_steps(tmp_pat
     frame.to_csv(path, index=False, float_format="%.9g")
     _, report = read_stream_csv(path, "pro")
     assert report.gaps == [] and n == 78
+
+
+@settings(max_examples=60, deadline=None)
+@given(grid_hz=st.sampled_from([10.0, 50.0, 100.0]), t0=st.floats(0.0, 100.0),
+       n=st.integers(40, 120))
+def test_a_stream_exactly_one_and_a_half_times_the_grid_rate_is_not_filtered(grid_hz, t0, n):
+    """Only a stream *more than* 1.5 x the grid rate is anti-alias filtered; one at exactly
+    1.5 x (a 150 Hz IMU on the 100 Hz grid, 15 Hz wheels on a 10 Hz one) is interpolated
+    as it is. Its median step's rounding decided it: 150 Hz on 100 Hz filtered for 409 of
+    903 clock starts and lengths. A stream 1 % faster still is filtered."""
+    from terrain.io.align import align_arrays
+
+    for native_hz, filtered in ((1.5 * grid_hz, False), (1.515 * grid_hz, True)):
+        t = t0 + np.arange(n) / native_hz
+        v = np.cos(2.9 * np.arange(n))[:, None]     # content near the stream's Nyquist
+        grid = t[0] + np.arange(int((t[-1] - t[0]) * grid_hz)) / grid_hz
+        out = align_arrays([t], [v], grid, grid_hz)
+        plain = np.interp(grid, t, v[:, 0])[:, None]
+        assert np.array_equal(out, plain) != filtered
