@@ -132,3 +132,38 @@ def test_a_stream_exactly_one_and_a_half_times_the_grid_rate_is_not_filtered(gri
         out = align_arrays([t], [v], grid, grid_hz)
         plain = np.interp(grid, t, v[:, 0])[:, None]
         assert np.array_equal(out, plain) != filtered
+
+
+@settings(max_examples=60, deadline=None)
+@given(t0=st.sampled_from([0.0, 0.37, 12.34, 1.7e9]), wheel_s=st.integers(30, 199),
+       imu_first=st.booleans())
+def test_a_stream_running_on_exactly_two_seconds_is_not_warned_of(t0, wheel_s, imu_first):
+    """Rule ``clock_overlap``'s likely case is strict: a stream running on for exactly
+    :data:`MAX_UNUSED_SPAN_S` (2 s) beyond the other (an overlap of under 20 s, so the
+    tenth of it is no longer bound) is not warned of, wherever the clocks start; their
+    float rounding made 10.3 - 8.3 s 2.0000000000000018 s, warned. 2.1 s is warned of."""
+    from terrain.io.plausibility import _check_clocks
+
+    for extra_s, warned in ((2.0, False), (2.1, True)):
+        wheels = t0 + np.arange(wheel_s + 1) / 10.0            # wheel_s tenths of a second
+        imu = t0 + np.arange(round((wheel_s / 10.0 + extra_s) * 50) + 1) / 50.0
+        if imu_first:       # the IMU starts early instead of running on
+            imu = imu - extra_s
+        found: list[str] = []
+        _check_clocks(pd.DataFrame({"t_s": imu}), pd.DataFrame({"t_s": wheels}),
+                      lambda s: s, found)
+        assert bool(found) == warned
+
+
+@pytest.mark.parametrize("t0", [0.0, 0.37, 0.1, 12.34, 1.7e9])
+def test_clocks_overlapping_for_exactly_half_the_shorter_stream_pass_wherever_they_start(t0):
+    """An IMU over 4 s and wheels starting 2 s into it, over 4 s: they overlap for exactly
+    half of the shorter, which passes (strict bound), wherever the clocks start."""
+    from terrain.io.plausibility import _check_clocks
+
+    imu = t0 + np.arange(201) / 50.0
+    wheels = t0 + 2.0 + np.arange(41) / 10.0
+    found: list[str] = []
+    unused = _check_clocks(pd.DataFrame({"t_s": imu}), pd.DataFrame({"t_s": wheels}),
+                           lambda s: s, found)
+    assert found == [] and unused == pytest.approx({"imu": 2.0, "wheels": 2.0})
