@@ -233,7 +233,9 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``max_epochs``, ``width`` or ``batch_size`` not an integer >= 1, ``lr`` or
+            ``max_epochs``, ``width`` or ``batch_size`` not an integer >= 1, ``batch_size``
+            1 with windows too short for the network to train on one alone (see
+            ``batch_size`` of the class), ``lr`` or
             ``weight_decay`` not a finite number >= 0, ``dropout`` not a
             number in [0, 1), ``n_threads`` neither ``None`` nor one, ``random_state`` not an
             integer in [0, 2**32 - 1];
@@ -355,6 +357,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     order = {"iterator_train__shuffle": False,
                              "iterator_train__sampler": sampler}
                 module, module_args = self._module_spec(Z.shape[1], len(self.classes_))
+                order.update(self._lone_window_batch(len(y_fit), Z.shape[1:], module,
+                                                     module_args))
                 self.net_ = NeuralNetClassifier(
                     module, **{f"module__{k}": v for k, v in module_args.items()},
                     criterion=torch.nn.CrossEntropyLoss,
@@ -377,6 +381,34 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                 torch.set_num_threads(threads)
         self.n_epochs_ = len(self.net_.history)
         return self
+
+    def _lone_window_batch(self, n_train: int, window_shape, module, module_args) -> dict:
+        """skorch's training-iterator settings for a last minibatch of one window.
+
+        A window short enough that one of the network's batch normalisations sees a single
+        position of it (:func:`~terrain.models.nets.normalises_one_value`) cannot be trained
+        on alone: torch refuses one value per channel in training mode. Such a last batch
+        (``n_train`` one more than a multiple of ``batch_size``) is left out of the epoch
+        (``drop_last``: a different window each epoch, as the order is drawn anew); longer
+        windows keep it. ``batch_size`` 1 would leave no batch: it is refused.
+        """
+        if self.batch_size > 1 and n_train % self.batch_size != 1:
+            return {}
+        import torch
+
+        from terrain.models.nets import normalises_one_value
+
+        with torch.random.fork_rng(devices=[]):    # the probe draws no weight of the fit
+            lone = normalises_one_value(module(**module_args), window_shape)
+        if not lone:
+            return {}
+        if self.batch_size == 1:
+            raise ConfigError(f"{type(self).__name__}: batch_size 1 trains on batches of one "
+                              f"window, and windows of shape {tuple(self.window_shape_)} "
+                              "(channels, samples) leave a batch normalisation of the network "
+                              "one value per channel, which torch cannot train on: give "
+                              "batch_size >= 2 or longer windows")
+        return {"iterator_train__drop_last": True}
 
     def predict_proba(self, X) -> np.ndarray:
         """Class probabilities.
@@ -475,7 +507,10 @@ class RawCNNClassifier(_WindowCNN):
     weight_decay : float
         AdamW decoupled weight decay.
     batch_size : int
-        Windows per minibatch.
+        Windows per minibatch. Where the windows are so short that a batch normalisation
+        sees one position of a window (8 samples or fewer for the raw CNN), a last minibatch
+        of one window is left out of each epoch (torch cannot train on it), and 1 is
+        refused; otherwise every window is trained on in every epoch.
     width : int
         Filters of the first convolution (later layers use twice as many).
     dropout : float
@@ -563,7 +598,10 @@ class SpectrogramCNNClassifier(_WindowCNN):
     weight_decay : float
         AdamW decoupled weight decay.
     batch_size : int
-        Windows per minibatch.
+        Windows per minibatch. Where the windows are so short that a batch normalisation
+        sees one position of a window (8 samples or fewer for the raw CNN), a last minibatch
+        of one window is left out of each epoch (torch cannot train on it), and 1 is
+        refused; otherwise every window is trained on in every epoch.
     width : int
         Filters of the first convolution (later layers use twice as many).
     dropout : float

@@ -6,7 +6,45 @@ joblib).
 
 from __future__ import annotations
 
+import torch
 from torch import nn
+
+
+def normalises_one_value(module: nn.Module, window_shape) -> bool:
+    """Whether one window alone gives a batch normalisation of ``module`` one value per
+    channel (training on a batch of that one window then fails in torch).
+
+    A batch normalisation in training mode averages each channel over the windows of the
+    batch and the positions the layers before it leave; a short window can leave one.
+
+    Parameters
+    ----------
+    module : torch.nn.Module
+        The network (its mode and weights are left as they are; it runs on its device).
+    window_shape : tuple of int
+        Shape of one input window without the batch axis: ``(n_channels, n_samples)`` for
+        :class:`Raw1dNet`, ``(n_channels, n_freqs, n_frames)`` for
+        :class:`Spectrogram2dNet`.
+
+    Returns
+    -------
+    bool
+        True when a batch normalisation sees one position of one window.
+    """
+    positions = []
+    norms = [m for m in module.modules() if isinstance(m, (nn.BatchNorm1d, nn.BatchNorm2d))]
+    hooks = [m.register_forward_pre_hook(
+        lambda _, args: positions.append(args[0][0, 0].numel())) for m in norms]
+    was_training = module.training
+    device = next(module.parameters()).device
+    try:
+        with torch.no_grad():
+            module.eval()(torch.zeros((1, *window_shape), device=device))
+    finally:
+        for hook in hooks:
+            hook.remove()
+        module.train(was_training)
+    return min(positions, default=2) < 2
 
 
 class Raw1dNet(nn.Module):
@@ -14,7 +52,9 @@ class Raw1dNet(nn.Module):
     global average, dropout, linear.
 
     Input ``(batch, n_channels, n_samples)`` standardised windows (any length of 1 sample
-    or more: the global average takes what the strides and pools leave).
+    or more: the global average takes what the strides and pools leave; in training mode a
+    batch of one window needs 9 samples or more, since the last batch normalisation sees
+    ``ceil(n_samples / 8)`` positions, see :func:`normalises_one_value`).
 
     Parameters
     ----------
