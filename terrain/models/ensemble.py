@@ -8,8 +8,8 @@ members' probabilities on whole runs held out of the training data (the first
 nothing outside the training fold is seen. A vector replaces the best one before it in
 :func:`simplex_grid`'s order only when its log loss is lower by more than 1e-12: a tie goes to
 the first.
-The members are then refitted on every training window. Without ``groups`` the weights are
-equal.
+The members are then refitted on every training window. Without ``groups``, or with a single
+class (every weight vector gives it probability 1), the weights are equal.
 """
 
 from __future__ import annotations
@@ -141,7 +141,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
     estimators : list of (str, estimator)
         Named members, each with ``predict_proba`` on the same input.
     weights : sequence of float or None
-        Fixed weights (normalised to sum 1); ``None``: chosen in ``fit`` (see module).
+        Fixed weights (normalised to sum 1); ``None``: chosen in ``fit`` (see module; equal
+        without ``groups`` or with a single class).
     weight_step : float
         Step of the simplex grid searched for the weights.
     inner_splits : int
@@ -158,7 +159,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
     weights_ : numpy.ndarray
         ``(n_members,)`` weights used.
     weight_scores_ : dict
-        Held-out log loss of every weight vector tried (empty with fixed weights).
+        Held-out log loss of every weight vector tried (empty where none was: fixed
+        weights, no ``groups`` or a single class).
     validation_groups_ : numpy.ndarray
         Runs held out to choose the weights (the first inner split that leaves every
         class a training run); empty when the weights are not chosen.
@@ -246,7 +248,9 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         self.validation_groups_ = np.asarray([] if groups is None else groups)[:0]
         if self.weights is not None:
             self.weights_ = normalised_weights(self.weights, n)
-        elif groups is None:
+        elif groups is None or len(self.classes_) < 2:
+            # one class: every vector gives it probability 1, there is nothing to choose
+            # (log_loss refused it with a bare "needs to contain at least two labels")
             self.weights_ = np.full(n, 1.0 / n)
         else:
             groups = np.asarray(groups)
