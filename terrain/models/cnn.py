@@ -83,8 +83,9 @@ def segment_samples(rate_hz: float, segment_s: float, n_samples: int) -> int:
     Returns
     -------
     int
-        The nearest whole number of samples, at least 2 and at most ``n_samples`` (a window
-        of 1 sample is one segment of 1 sample).
+        The nearest whole number of samples (Python's ``round``: halfway between two counts,
+        the even one, e.g. 0.5 s at 5 Hz is 2 samples), at least 2 and at most ``n_samples``
+        (a window of 1 sample is one segment of 1 sample).
     """
     return int(np.clip(round(segment_s * rate_hz), 2, n_samples))
 
@@ -104,12 +105,16 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
         least 2 samples where the window has them; a segment of fewer than 3 samples is
         tapered with a rectangular window, since a Hann window of 2 samples is all zeros).
     hop_s : float
-        Hop between segments, s.
+        Hop between segments, s (the nearest whole number of samples, at least 1).
 
     Returns
     -------
     spectra : numpy.ndarray
         ``(n_windows, n_channels, n_freqs, n_frames)`` float32, ``log10(|STFT|^2 + 1e-10)``.
+        Frames start every hop from the window's first sample, ``(n_samples - seg) // hop +
+        1`` of them; the ``(n_samples - seg) % hop`` samples after the last whole segment are
+        in no frame, and the Hann taper (``numpy.hanning``) weighs the first and last sample
+        of each segment 0 (with the defaults 0.5 s / 0.2 s, the last 0.1 s of a 2 s window).
     freqs_hz : numpy.ndarray
         ``(n_freqs,)`` bin frequencies, Hz.
 
