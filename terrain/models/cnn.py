@@ -102,8 +102,9 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
         Sampling rate, Hz.
     segment_s : float
         STFT segment length, s (:func:`segment_samples`: clipped to the window length, at
-        least 2 samples where the window has them; a segment of fewer than 3 samples is
-        tapered with a rectangular window, since a Hann window of 2 samples is all zeros).
+        least 2 samples where the window has them; a segment of fewer than 4 samples is
+        tapered with a rectangular window, since a Hann window of 2 samples is all zeros and
+        one of 3 keeps its middle sample alone, whose spectrum is flat).
     hop_s : float
         Hop between segments, s (the nearest whole number of samples, at least 1).
 
@@ -127,8 +128,9 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     seg = segment_samples(rate_hz, segment_s, X.shape[-1])
     hop = max(1, int(round(hop_s * rate_hz)))
     frames = np.lib.stride_tricks.sliding_window_view(X, seg, axis=-1)[..., ::hop, :]
-    # a Hann window of 2 samples is all zeros (a constant image): shorter ones are rectangular
-    taper = np.hanning(seg) if seg >= 3 else np.ones(seg)
+    # a Hann window of 2 samples is all zeros (a constant image), one of 3 keeps the middle
+    # sample alone (every bin its power, no spectrum): shorter ones are rectangular
+    taper = np.hanning(seg) if seg >= 4 else np.ones(seg)
     spec = np.fft.rfft(frames * taper.astype(np.float32), axis=-1)
     power = np.log10(np.abs(spec) ** 2 + POWER_FLOOR).astype(np.float32)
     return np.swapaxes(power, -1, -2), np.fft.rfftfreq(seg, 1.0 / rate_hz)

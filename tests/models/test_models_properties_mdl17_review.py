@@ -227,7 +227,7 @@ def _slow_log_spectrogram(x: np.ndarray, rate_hz: float, segment_s: float, hop_s
     """Frame by frame: every ``hop``-th segment of ``seg`` samples, tapered, its power."""
     seg = int(np.clip(round(segment_s * rate_hz), 2, len(x)))
     hop = max(1, int(round(hop_s * rate_hz)))
-    taper = np.hanning(seg) if seg >= 3 else np.ones(seg)
+    taper = np.hanning(seg) if seg >= 4 else np.ones(seg)   # (3 samples too, review mdl23)
     cols = []
     for start in range(0, len(x) - seg + 1, hop):
         spec = np.fft.rfft(x[start:start + seg] * taper)

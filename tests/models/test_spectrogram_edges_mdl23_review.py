@@ -66,3 +66,27 @@ def test_a_segment_halfway_between_two_sample_counts_rounds_to_the_even_one(
         samples, expected):
     # documented: Python's round, a tie to the even count (0.5 s at 5 Hz: 2 samples)
     assert segment_samples(1.0, samples, 100) == expected
+
+
+@pytest.mark.parametrize("seg", [2, 3, 4, 5])
+def test_a_short_segment_tells_a_constant_from_an_alternating_signal(seg):
+    # np.hanning(3) is [0, 1, 0]: a Hann-tapered 3-sample segment was its middle sample
+    # alone, every bin that sample's power, so a constant and a sign-alternating signal gave
+    # one spectrum (0.5 s segments at 6.5 Hz are 3 samples); like 2 samples (np.hanning(2)
+    # is [0, 0]), 3 are tapered with a rectangular window
+    constant = np.ones((1, 1, 12), np.float32)
+    alternating = np.tile([1.0, -1.0], 6)[None, None].astype(np.float32)
+    a, freqs = log_spectrogram(constant, 1.0, float(seg), 1.0)
+    b, _ = log_spectrogram(alternating, 1.0, float(seg), 1.0)
+    assert len(freqs) == seg // 2 + 1
+    assert a[0, 0, 0, 0] > b[0, 0, 0, 0] + 0.5         # the constant's power is at 0 Hz
+    assert b[0, 0, -1, 0] > a[0, 0, -1, 0] + 0.5       # the alternation's at the top bin
+
+
+def test_a_three_sample_segment_is_rectangular():
+    # 0.5 s at 6.5 Hz (the BorealTC wheel rate) is 3.25 samples: 3
+    x = np.array([[[1.0, 2.0, 4.0]]], dtype=np.float32)
+    spec, _ = log_spectrogram(x, 6.5, 0.5, 0.2)
+    assert segment_samples(6.5, 0.5, 3) == 3
+    np.testing.assert_allclose(spec[0, 0, :, 0], np.log10(np.abs(np.fft.rfft(x[0, 0])) ** 2
+                                                          + 1e-10), rtol=1e-6)
