@@ -28,6 +28,10 @@ from sklearn.utils.validation import check_is_fitted
 from terrain.errors import ConfigError
 from terrain.models.compiled import CompiledPipeline
 
+#: Fewest samples of a window MiniRocket transforms: its kernels span 9 samples (aeon refuses
+#: shorter series).
+MIN_WINDOW_SAMPLES = 9
+
 
 def require_aeon() -> None:
     """Refuse the ``minirocket`` model where its optional extra, aeon, is not installed.
@@ -48,14 +52,21 @@ def require_aeon() -> None:
 
 def _signal_windows(X) -> np.ndarray:
     """``X`` as float32 windows; booleans (a mask handed over for the signals), no window
-    or no channel, and values not finite in float32 refused (aeon refuses NaN only: inf
-    gives finite features)."""
+    or no channel, windows of fewer than :data:`MIN_WINDOW_SAMPLES` samples and values not
+    finite in float32 refused (aeon refuses NaN only: inf gives finite features)."""
     X = np.asarray(X)
     # (aeon's bare IndexError "index 0 is out of bounds" for no window, NumPy's "a must be
     # greater than 0" for no channel)
     if (X.ndim == 3 and 0 in X.shape[:2]) or (X.ndim == 2 and not len(X)):
         raise ValueError(f"MiniRocket windows of shape {X.shape} hold no window or no "
                          "channel: give (n_windows, n_channels, n_samples) windows")
+    # (aeon's "n_timepoints must be >= 9 ... zero pad shorter series", from inside every
+    # fold's fit; the windowing cuts windows of 4 samples and more)
+    if X.ndim in (2, 3) and X.shape[-1] < MIN_WINDOW_SAMPLES:
+        raise ValueError(f"MiniRocket windows of {X.shape[-1]} samples: its kernels span "
+                         f"{MIN_WINDOW_SAMPLES} samples, so it needs windows of "
+                         f"{MIN_WINDOW_SAMPLES} samples or more (a longer window or a higher "
+                         "rate)")
     if X.dtype.kind == "b":     # aeon would read them as 0.0 and 1.0
         raise ValueError("MiniRocket windows hold booleans (a mask?) where signal values are "
                          "expected")
@@ -80,7 +91,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
     Parameters
     ----------
     n_kernels : int
-        Number of features (aeon rounds down to a multiple of 84).
+        Number of features (aeon rounds down to a multiple of 84; fewer than 84 give 84).
     max_dilations_per_kernel : int
         Upper bound on the dilations of each of the 84 kernels (aeon's default 32; the
         dilations are exponentially spaced up to ``(n_samples - 1) / 8`` samples and the
@@ -116,7 +127,8 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         ConfigError
             aeon is not installed.
         ValueError
-            Boolean windows, no window or no channel, or values not finite in float32.
+            Boolean windows, no window or no channel, windows of fewer than
+            :data:`MIN_WINDOW_SAMPLES` samples, or values not finite in float32.
         """
         require_aeon()
         try:
@@ -149,7 +161,8 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         sklearn.exceptions.NotFittedError
             ``fit`` has not been called.
         ValueError
-            Boolean windows, no window or no channel, or values not finite in float32.
+            Boolean windows, no window or no channel, windows of fewer than
+            :data:`MIN_WINDOW_SAMPLES` samples, or values not finite in float32.
         """
         check_is_fitted(self, "rocket_")     # (was a bare AttributeError before fit)
         return np.asarray(self.rocket_.transform(_signal_windows(X)))
@@ -226,7 +239,8 @@ def make_minirocket(random_state: int = 0, n_kernels: int = 10_000, C: float = 0
     random_state : int
         Seed of the kernel biases' sampling.
     n_kernels : int
-        Number of MiniRocket features (rounded down by aeon to a multiple of 84).
+        Number of MiniRocket features (rounded down by aeon to a multiple of 84; fewer than
+        84 give 84).
     C : float
         Inverse L2 regularisation of the logistic regression.
     n_jobs : int

@@ -84,7 +84,8 @@ class ModelConfig:
         torch threads while training a CNN (``None``: torch's default); at most
         :data:`MAX_TORCH_THREADS`.
     minirocket_kernels : int
-        MiniRocket features.
+        MiniRocket features (a multiple of 84 rounded down, at least 84:
+        :class:`~terrain.models.minirocket.MiniRocketFeatures`).
     minirocket_max_dilations : int
         MiniRocket dilations per kernel at most (its single-window time grows with it, see
         :mod:`terrain.models.minirocket`).
