@@ -111,7 +111,7 @@ class ModelConfig:
     cnn_seeds : int
         Independently seeded networks per CNN (alone or as an ensemble member) whose class
         probabilities are averaged with equal weights (seed bagging: seeds ``random_state``,
-        ``random_state + 1``, ...); 1 (default): one network; at most
+        ``random_state + 1``, ... modulo ``2**32``); 1 (default): one network; at most
         :data:`MAX_CNN_SEEDS`.
     run_balanced : bool
         Fit every single model (alone, as an ensemble member or in a seed bag) with
@@ -334,7 +334,8 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
         ``config.window_ekf`` a :class:`~terrain.models.window_ekf.WindowEKFClassifier`
         around the model built for the augmented channels; with ``config.cnn_seeds > 1``
         every CNN is a :class:`~terrain.models.ensemble.SoftVotingEnsemble` of that many
-        networks seeded ``random_state``, ``random_state + 1``, ... with equal weights; with
+        networks seeded ``random_state``, ``random_state + 1``, ... (modulo ``2**32``, NumPy's
+        seed range: ``2**32 - 1`` is followed by 0) with equal weights; with
         ``config.run_balanced`` every single model in it is a
         :class:`~terrain.models.weighting.RunBalancedClassifier`
         (:func:`~terrain.models.weighting.run_balanced`).
@@ -352,9 +353,12 @@ def make_model(config: ModelConfig, channels: Sequence[str], rate_hz: float, dat
                                        rate_hz, dataset, random_state, probability))
     if kind in CNN_MODELS and config.cnn_seeds > 1:
         single = replace(config, cnn_seeds=1)
-        bag = [(f"{kind}-seed{random_state + i}",
-                make_model(single, channels, rate_hz, dataset, random_state + i, probability))
-               for i in range(config.cnn_seeds)]
+        # modulo NumPy's seed range: a valid seed near 2**32 - 1 gave the last networks
+        # seeds their fit refused
+        seeds = [(random_state + i) % 2 ** 32 for i in range(config.cnn_seeds)]
+        bag = [(f"{kind}-seed{seed}",
+                make_model(single, channels, rate_hz, dataset, seed, probability))
+               for seed in seeds]
         return SoftVotingEnsemble(bag, weights=(1.0,) * len(bag), random_state=random_state)
     if kind == "svm":
         return svm_window_pipeline(channels, rate_hz,
