@@ -25,7 +25,7 @@ from sklearn.linear_model import LogisticRegression
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, config_integer
 from terrain.models.compiled import CompiledPipeline
 
 #: Fewest samples of a window MiniRocket transforms: its kernels span 9 samples (aeon refuses
@@ -99,7 +99,8 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
     n_jobs : int
         Threads of the transform.
     random_state : int
-        Seed of the bias sampling.
+        Seed of the bias sampling, in [0, 2**32 - 1] (NumPy's range, as the split seeds);
+        aeon's seeds are int32, so one of 2**31 or more is taken modulo 2**31.
     """
 
     def __init__(self, n_kernels: int = 10_000, max_dilations_per_kernel: int = 32,
@@ -125,7 +126,7 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            aeon is not installed.
+            aeon is not installed, or ``random_state`` not an integer in [0, 2**32 - 1].
         ValueError
             Boolean windows, no window or no channel, windows of fewer than
             :data:`MIN_WINDOW_SAMPLES` samples, or values not finite in float32.
@@ -136,10 +137,14 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         except ImportError as exc:  # installed, but it or one of its imports is broken
             raise ConfigError(f"the minirocket model needs aeon, which does not import: "
                               f"{exc}") from exc
+        # aeon seeds only a Python int (a NumPy integer drew the biases unseeded, True was
+        # the seed 1) and casts it to int32 (2**31 and more: a bare OverflowError)
+        config_integer("MiniRocketFeatures.random_state", self.random_state, 0, 2 ** 32 - 1)
+        seed = int(self.random_state) % 2 ** 31
         X = _signal_windows(X)
         self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
                                   max_dilations_per_kernel=self.max_dilations_per_kernel,
-                                  n_jobs=self.n_jobs, random_state=self.random_state).fit(X)
+                                  n_jobs=self.n_jobs, random_state=seed).fit(X)
         self.n_features_in_ = X.shape[1]
         return self
 
@@ -237,7 +242,8 @@ def make_minirocket(random_state: int = 0, n_kernels: int = 10_000, C: float = 0
     Parameters
     ----------
     random_state : int
-        Seed of the kernel biases' sampling.
+        Seed of the kernel biases' sampling, in [0, 2**32 - 1] (see
+        :class:`MiniRocketFeatures`).
     n_kernels : int
         Number of MiniRocket features (rounded down by aeon to a multiple of 84; fewer than
         84 give 84).

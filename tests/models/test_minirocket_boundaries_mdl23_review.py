@@ -46,3 +46,35 @@ def test_the_number_of_features_is_a_multiple_of_84_and_at_least_84(n_kernels, n
     X = _windows(30)
     features = MiniRocketFeatures(n_kernels=n_kernels, max_dilations_per_kernel=4).fit(X)
     assert features.transform(X[:1]).shape == (1, n_features)
+
+
+def _features(seed) -> np.ndarray:
+    X = _windows(30)
+    return MiniRocketFeatures(n_kernels=84, max_dilations_per_kernel=4,
+                              random_state=seed).fit(X).transform(X)
+
+
+@pytest.mark.parametrize("seed", [np.int64(3), np.uint32(3), np.int32(3)])
+def test_a_numpy_integer_seed_is_the_seed_it_holds(seed):
+    # aeon takes a seed only where isinstance(seed, int): a NumPy integer (a seed taken
+    # from np.arange) was dropped and the biases drawn unseeded, so two fits differed
+    np.testing.assert_array_equal(_features(seed), _features(3))
+
+
+@pytest.mark.parametrize("seed", [2 ** 31 - 1, 2 ** 31, 2 ** 32 - 1])
+def test_seeds_up_to_the_top_of_numpys_range_are_taken(seed):
+    # aeon casts the seed to int32: 2**31 and above (valid split seeds, up to 2**32 - 1)
+    # failed with a bare OverflowError; they are taken modulo 2**31 (documented)
+    np.testing.assert_array_equal(_features(seed), _features(seed % 2 ** 31))
+
+
+def test_seeds_below_2_31_keep_their_own_biases():
+    assert not np.array_equal(_features(2 ** 31 - 1), _features(0))
+
+
+@pytest.mark.parametrize("seed", [-1, 2 ** 32, 1.5, True, "0"])
+def test_a_seed_outside_numpys_range_is_refused_by_name(seed):
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="random_state"):
+        _features(seed)
