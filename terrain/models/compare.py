@@ -853,7 +853,8 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
     """Accuracy over signal set x window length: one heatmap per dataset and model.
 
     Each cell shows the mean accuracy over seeds at decision history ``history`` (colour and
-    first line) and macro-F1 (second line); a blank cell was not run.
+    first line) and macro-F1 (second line); a blank cell was not run. The colour scale runs
+    from 0.5 to 1, from the tenth at or under the lowest cell where that is below 0.5.
 
     Parameters
     ----------
@@ -881,6 +882,10 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
     datasets = list(dict.fromkeys(sub["dataset"]))
     models = list(dict.fromkeys(sub["model"]))
     signals = list(dict.fromkeys(sub["signals"]))
+    # colours from 0.5, from the tenth at or under the lowest cell where it is below (a
+    # cell under the scale took the colour of 0.5)
+    lowest = sub["accuracy_mean"].min()
+    vmin = max(0.0, min(0.5, np.floor(10.0 * lowest) / 10.0)) if np.isfinite(lowest) else 0.5
     windows = sorted(set(sub["window_s"]))
     fig, axes = plt.subplots(len(models), len(datasets),
                              figsize=(1.1 * len(windows) * len(datasets) + 1.5,
@@ -895,7 +900,7 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
                    .reindex(index=signals, columns=windows))
             f1 = (cells.pivot_table(index="signals", columns="window_s", values="macro_f1_mean")
                   .reindex(index=signals, columns=windows))
-            image = ax.imshow(acc.to_numpy(dtype=float), vmin=0.5, vmax=1.0, cmap="viridis",
+            image = ax.imshow(acc.to_numpy(dtype=float), vmin=vmin, vmax=1.0, cmap="viridis",
                               aspect="auto")
             for r in range(len(signals)):
                 for c in range(len(windows)):

@@ -40,3 +40,25 @@ def test_the_axis_starts_at_0_6_when_every_bar_is_above_it():
     fig = plot_comparison(_table([0.79, 0.98], [0.03, 0.01]))
     assert fig.axes[0].get_ylim() == (0.6, 1.0)
     plt.close(fig)
+
+
+def _grid(accuracies) -> pd.DataFrame:
+    return pd.DataFrame([{"protocol": "grouped", "dataset": "toy", "signals": "wheels",
+                          "window_s": w, "train_hop_s": w, "history": 1, "model": "svm",
+                          "accuracy_mean": a, "macro_f1_mean": a}
+                         for w, a in zip((1.0, 2.0), accuracies)])
+
+
+@pytest.mark.parametrize("accuracies, clim", [((0.56, 0.9), (0.5, 1.0)),
+                                              ((0.5, 0.9), (0.5, 1.0)),
+                                              ((0.34, 0.9), (0.3, 1.0)),
+                                              ((0.0, 0.9), (0.0, 1.0))])
+def test_the_grids_colour_scale_reaches_its_lowest_cell(accuracies, clim):
+    # the colours started at 0.5: a cell at 0.34 took the colour of 0.5
+    import matplotlib.pyplot as plt
+
+    from terrain.models.compare import plot_grid
+
+    fig = plot_grid(_grid(accuracies))
+    assert fig.axes[0].images[0].get_clim() == pytest.approx(clim)
+    plt.close(fig)
