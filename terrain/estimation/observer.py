@@ -304,7 +304,9 @@ def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m
     half_track_m : float
         Half track width B/2, m.
     min_speed_m_s : float
-        Rim speeds below this give NaN (eta undefined).
+        Rim speeds below this give NaN (eta undefined); a rim speed exactly at it gives
+        eta. A rim speed of 0 gives NaN whatever the floor (with ``min_speed_m_s = 0`` it
+        is not below it, but ``g / 0`` is no efficiency: it was inf).
 
     Returns
     -------
@@ -326,6 +328,6 @@ def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m
     vl = np.asarray(v_left_m_s, dtype=float)
     true_l, true_r = side_speeds(v, w, 2.0 * half_track_m, 1.0)   # V_G -+ d Omega
     with np.errstate(divide="ignore", invalid="ignore"):
-        er = np.where(np.abs(vr) >= min_speed_m_s, true_r / vr, np.nan)
-        el = np.where(np.abs(vl) >= min_speed_m_s, true_l / vl, np.nan)
+        er = np.where((np.abs(vr) >= min_speed_m_s) & (vr != 0.0), true_r / vr, np.nan)
+        el = np.where((np.abs(vl) >= min_speed_m_s) & (vl != 0.0), true_l / vl, np.nan)
     return np.column_stack([er, el])
