@@ -254,6 +254,20 @@ def stream_overlap_s(run_id: str, spans: Mapping[str, np.ndarray], why: str = ""
 def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     """Uniform grid ``t_start, t_start + 1/rate, ...`` up to ``t_end`` (inclusive).
 
+    A rate read off a stream's own clock (``1 / median step``, the estimators' default) is
+    off by up to one unit in the last place of its timestamps per step, so a grid at that
+    rate drifts against the samples by up to that much per step: on a clock far from 0 (a
+    robot's seconds since boot, an epoch clock) it ended a hair before the last sample, or
+    one whole step short, and the stream's last sample was outside the grid (and, drifting
+    past the 1e-9 s of the placement rule of :func:`sample_steps`, samples inside it went
+    to the next step, superseded there). A ``t_end`` within that rounding slack (twice the
+    steps times the clock's unit in the last place, at most a quarter step) of a grid step
+    is the last step: the count takes it and the steps are spread evenly over ``[t_start,
+    t_end]`` (the rate corrected by the clock's rounding). A grid whose last step is already
+    within 1e-9 s of ``t_end`` is left as computed. A clock whose unit in the last place
+    exceeds 1e-9 s (beyond about 8e6 s, an epoch clock) rounds its samples off the grid's
+    steps by more than the placement rule's 1e-9 s, which no grid can meet.
+
     Parameters
     ----------
     t_start_s, t_end_s : float
@@ -288,11 +302,22 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
         raise ConfigError(f"a grid at {rate_hz:g} Hz over {t_end_s - t_start_s:.6g} s would "
                           f"have {steps:.4g} steps, more than the {MAX_GRID_STEPS:,} allowed "
                           f"(about 1.2 kB each); lower the rate")
-    n = int(np.floor((t_end_s - t_start_s) * rate_hz + 1e-9)) + 1
+    span = (t_end_s - t_start_s) * rate_hz
+    # the clock's rounding over the grid (a rate read off it is off by up to one unit in the
+    # last place per step), s; 1e-9 steps as before where it is smaller
+    slack_s = min(2.0 * span * float(np.spacing(max(abs(t_start_s), abs(t_end_s)))),
+                  0.25 / rate_hz)
+    n = int(np.floor(span + max(1e-9, slack_s * rate_hz))) + 1
     if n < 2:
         raise TimeStepError(f"a grid at {rate_hz:g} Hz over {t_end_s - t_start_s:.6g} s has "
                             f"{n} step: a filter needs at least 2")
-    return t_start_s + np.arange(n) / rate_hz
+    grid = t_start_s + np.arange(n) / rate_hz
+    if 1e-9 < abs(t_end_s - grid[-1]) <= slack_s:
+        # off t_end by the clock's rounding alone: the rate is the clock's own, so the steps
+        # are spread evenly over [t_start, t_end] (the rate corrected by that rounding)
+        grid = t_start_s + np.arange(n) * ((t_end_s - t_start_s) / (n - 1))
+        grid[-1] = t_end_s
+    return grid
 
 
 def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:

@@ -2,6 +2,7 @@
 estimation package."""
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from terrain.estimation.observer import eta_from_truth
@@ -26,3 +27,74 @@ def test_eta_from_truth_speed_floor_is_inclusive_one_ulp_either_side():
     assert np.isnan(eta[0]).all()                # below the floor: undefined
     assert np.isfinite(eta[1:]).all()            # at it and above: defined
     np.testing.assert_allclose(eta[1], [1.0, -1.0])
+
+
+# -- the last sample of a run on a clock far from 0 -----------------------------------------
+
+#: Clocks from 0 and since boot (17 min .. 12 days), whose unit in the last place is below the
+#: placement rule's 1e-9 s; an epoch clock (1.7e9 s, 2.4e-7 s) is not (make_grid says so).
+CLOCKS = (0.0, 1e3, 8.64e4, 1e6)
+EPOCH_S = 1.7e9
+
+
+@settings(max_examples=80, deadline=None)
+@given(t0=st.sampled_from(CLOCKS), rate=st.sampled_from((6.5, 15.0, 50.0, 100.0, 200.0)),
+       n=st.integers(2, 3000))
+def test_a_grid_at_the_rate_read_off_a_stream_keeps_its_last_sample(t0, rate, n):
+    # the default filter rate is 1 / median step of the stream's own clock, off by up to one
+    # unit in the last place of its timestamps; a grid from it fell short of the last
+    # sample (the grid one step short, or its last step a hair before the sample): the last
+    # sample of the run was counted as outside
+    from terrain.estimation.runner import make_grid, sample_steps, samples_inside
+    t = t0 + np.arange(n) / rate
+    if n * np.spacing(t[-1]) > 0.1 / rate:      # an epoch clock over a long run: out of reach
+        return
+    grid = make_grid(t[0], t[-1], 1.0 / np.median(np.diff(t)))
+    assert grid.size == n
+    assert grid[0] == t[0] and abs(grid[-1] - t[-1]) <= 1e-9    # (the placement rule's)
+    assert samples_inside(grid, t).all()
+    np.testing.assert_array_equal(sample_steps(grid, t), np.arange(n))
+
+
+@settings(max_examples=40, deadline=None)
+@given(rate=st.sampled_from((6.5, 15.0, 50.0, 100.0, 200.0)), n=st.integers(2, 1000))
+def test_on_an_epoch_clock_the_grid_still_ends_on_the_last_sample(rate, n):
+    from terrain.estimation.runner import make_grid, samples_inside
+    t = EPOCH_S + np.arange(n) / rate
+    grid = make_grid(t[0], t[-1], 1.0 / np.median(np.diff(t)))
+    assert grid.size == n and grid[-1] == t[-1]
+    assert samples_inside(grid, t).all()
+
+
+@pytest.mark.parametrize("t0", CLOCKS + (EPOCH_S,))
+def test_skid_steer_estimate_uses_the_last_gyro_and_wheel_samples_on_any_clock(t0):
+    import pandas as pd
+    from terrain.estimation.skid_steer import estimate_skid_steer
+    from terrain.run import Run
+    tw = t0 + np.arange(101) / 10.0
+    ti = t0 + np.arange(1001) / 100.0
+    run = Run("sim/TEST/05", "sim", "ASPHALT",
+              {"wheels": pd.DataFrame({"t_s": tw, "vel_l": 0.5, "vel_r": 0.6}),
+               "imu": pd.DataFrame({"t_s": ti, "wz": 0.2})})
+    res = estimate_skid_steer(run)
+    assert res.counts["gyro"]["outside"] == 0 and res.counts["wheels"]["outside"] == 0
+    assert res.t_s.size == 1001 and abs(res.t_s[-1] - ti[-1]) <= 1e-9
+    if t0 != EPOCH_S:     # (on an epoch clock samples round off their steps: make_grid)
+        assert res.counts["gyro"]["used"] == 1001 and res.counts["wheels"]["used"] == 101
+
+
+def test_the_shipped_wheel_only_run_keeps_its_last_wheel_sample():
+    # BorealTC ICE/01 has no IMU: its 6.5 Hz wheel clock (9358 samples over 1439.5 s) sets the
+    # grid, whose rate 1 / median step (6.499999999998522 Hz) made it 9357 steps long: the
+    # run's last wheel sample was outside the grid
+    from pathlib import Path
+
+    import pandas as pd
+    from terrain.estimation.runner import make_grid, sample_steps, samples_inside
+    path = Path(__file__).resolve().parents[2] / "data" / "borealtc" / "wheels.parquet"
+    wheels = pd.read_parquet(path, columns=["run_id", "t_s"])
+    t = wheels.loc[wheels["run_id"] == "borealtc/ICE/01", "t_s"].to_numpy(float)
+    grid = make_grid(t[0], t[-1], 1.0 / np.median(np.diff(t)))
+    assert grid.size == t.size == 9358
+    assert samples_inside(grid, t).all()
+    np.testing.assert_array_equal(sample_steps(grid, t), np.arange(t.size))
