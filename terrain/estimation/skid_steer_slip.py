@@ -492,7 +492,9 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
         Widening of each rim speed for its noise, m/s, >= 0.
     hold_s : float
         Each step's range also covers the ranges of the steps of the last ``hold_s``
-        seconds, s, >= 0 (0: the latest sample's alone).
+        seconds, the window ``(t - hold_s, t]``, s, >= 0 (0: the latest sample's alone): a
+        step ``hold_s`` back (to 1 ns) is outside it, so a hold of ``k`` grid steps covers
+        the step and the ``k - 1`` before it.
 
     Returns
     -------
@@ -532,11 +534,15 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
         # the widest range over the window (t - hold_s, t] of each step; a window reaching a
         # step before the first sample (no range, -inf / inf) has none (pandas' rolling max
         # reads an infinite value as missing: those steps were NaN, which run_filter refused)
-        clock = pd.to_timedelta(t_grid_s - t_grid_s[0], unit="s")
+        # on a clock of whole ns, the window 1 ns shorter: a step hold_s back (to the
+        # rounding of the clock) is outside it (the float seconds cut to ns put it in or out
+        # by their rounding: a hold of 3 steps at 30 Hz held 3 or 4)
+        clock = pd.to_timedelta(np.round((t_grid_s - t_grid_s[0]) * 1e9).astype(np.int64),
+                                unit="ns")
         window = pd.DataFrame({"back": np.where(held, -lower, 0.0),
                                "ahead": np.where(held, upper, 0.0),
                                "none": np.where(held, 0.0, 1.0)}, index=clock).rolling(
-            pd.Timedelta(seconds=hold_s)).max()
+            pd.Timedelta(max(int(round(hold_s * 1e9)) - 1, 1), unit="ns")).max()
         unbounded = window["none"].to_numpy() > 0.0
         lower = np.where(unbounded, -np.inf, -window["back"].to_numpy())
         upper = np.where(unbounded, np.inf, window["ahead"].to_numpy())

@@ -98,3 +98,23 @@ def test_the_shipped_wheel_only_run_keeps_its_last_wheel_sample():
     assert grid.size == t.size == 9358
     assert samples_inside(grid, t).all()
     np.testing.assert_array_equal(sample_steps(grid, t), np.arange(t.size))
+
+
+# -- the hold window of the speed bound: (t - hold_s, t] -------------------------------------
+
+@settings(max_examples=80, deadline=None)
+@given(t0=st.sampled_from(CLOCKS), rate=st.sampled_from((15.0, 30.0, 50.0, 100.0, 1000.0 / 3)),
+       k=st.integers(1, 12), j=st.integers(0, 40))
+def test_a_rim_spike_widens_the_speed_bound_over_exactly_hold_s(t0, rate, k, j):
+    # hold_s = k steps: the window (t - hold_s, t] of a step holds it and the k - 1 before
+    # it; the step exactly hold_s back is outside it (at 30 Hz with hold_s = 0.1 s it was
+    # taken on some steps, the rounding of the clock deciding: the spike held 3 or 4 steps)
+    from terrain.estimation.runner import SensorSamples, make_grid
+    from terrain.estimation.skid_steer_slip import speed_bounds_m_s
+    grid = make_grid(t0, t0 + 3.0, rate)
+    j = k + j
+    rim = np.full((grid.size, 2), 0.2)
+    rim[j] = 1.0
+    lower, upper = speed_bounds_m_s(grid, SensorSamples(grid, rim), -0.5, 0.0, hold_s=k / rate)
+    widened = np.flatnonzero(upper > upper[k:].min() + 1e-12)
+    np.testing.assert_array_equal(widened[widened >= k], np.arange(j, j + k))
