@@ -112,7 +112,7 @@ def test_a_rim_spike_widens_the_speed_bound_over_exactly_hold_s(t0, rate, k, j):
     from terrain.estimation.runner import SensorSamples, make_grid
     from terrain.estimation.skid_steer_slip import speed_bounds_m_s
     grid = make_grid(t0, t0 + 3.0, rate)
-    j = k + j
+    j = min(k + j, grid.size - k)      # the spike and its hold inside the grid
     rim = np.full((grid.size, 2), 0.2)
     rim[j] = 1.0
     lower, upper = speed_bounds_m_s(grid, SensorSamples(grid, rim), -0.5, 0.0, hold_s=k / rate)
