@@ -343,7 +343,8 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     return step_index(t_grid, t_s)
 
 
-def samples_inside(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
+def samples_inside(t_grid: np.ndarray, t_s: np.ndarray, first_step_s: float | None = None
+                   ) -> np.ndarray:
     """Which samples :func:`run_filter` may use: those after the step before the first
     (``t_0 - dt``, taken at the first step) and at or before the last step, both to 1e-9 s
     by the placement rule of :func:`sample_steps` (a sample at ``t_0 - dt`` belongs to that
@@ -355,24 +356,30 @@ def samples_inside(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
         Filter steps, s, increasing.
     t_s : ndarray, shape (k,)
         Sample times, s.
+    first_step_s : float, optional
+        ``dt`` of the step before the first, s (a grid cut from a longer one: that grid's
+        step before its cut); None: the grid's first step, 1 s for a grid of one step.
 
     Returns
     -------
     ndarray of bool, shape (k,)
     """
     t = np.asarray(t_s, dtype=float)
-    step0 = t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0
+    step0 = (first_step_s if first_step_s is not None
+             else t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0)
     return (t > t_grid[0] - step0 + 1e-9) & (t <= t_grid[-1] + 1e-9)
 
 
-def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str
+def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str,
+           first_step_s: float | None = None
            ) -> tuple[np.ndarray, np.ndarray, dict[str, int]]:
-    """Step index of each kept sample and the counts of sensor ``name``."""
+    """Step index of each kept sample and the counts of sensor ``name`` (``first_step_s``:
+    :func:`samples_inside`)."""
     t = samples.t_s
     v = samples.values
     if v.shape[1] != width:
         raise ShapeError(f"sensor {name!r} has {v.shape[1]} columns, the model expects {width}")
-    inside = samples_inside(t_grid, t)
+    inside = samples_inside(t_grid, t, first_step_s)
     idx = sample_steps(t_grid, t)
     finite_any = np.isfinite(v).any(axis=1)
     non_finite = int((~np.isfinite(v).all(axis=1) & inside).sum())
@@ -414,7 +421,8 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
                x0: np.ndarray | None = None, P0: np.ndarray | None = None,
                store_covariance: bool = False, engine: str = "auto",
                step_bounds: tuple[np.ndarray, np.ndarray] | None = None,
-               step_bound_movable: np.ndarray | None = None) -> EKFResult:
+               step_bound_movable: np.ndarray | None = None,
+               first_step_s: float | None = None) -> EKFResult:
     """Filter a recording with ``model`` on the grid ``t_grid``.
 
     Two engines compute the same result (to round-off, ~1e-12 relative): the NumPy reference
@@ -462,6 +470,11 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
     step_bound_movable : ndarray of bool, shape (n,), optional
         The states the projection onto ``step_bounds`` may move (``movable`` of
         :func:`~terrain.estimation.ekf.project_to_bounds`; default: all).
+    first_step_s : float, optional
+        Length of the step before the first, s: the first step takes the samples of
+        ``(t_0 - first_step_s, t_0]`` (:func:`samples_inside`). None: the grid's first step
+        (1 s for a grid of one step); a grid cut from a longer one (the segments of
+        :func:`terrain.estimation.skid_steer_slip.run_with_pseudo_slip`) passes that grid's.
 
     Returns
     -------
@@ -498,7 +511,7 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         if name not in sensor_rows:
             raise ShapeError(f"unknown sensor {name!r}; the model has {list(sensor_rows)}")
         rows = list(sensor_rows[name])
-        steps, values, c = _place(t_grid, s, len(rows), name)
+        steps, values, c = _place(t_grid, s, len(rows), name, first_step_s)
         Z[steps[:, None], np.asarray(rows)[None, :]] = values
         counts[name] = c
     avail = np.isfinite(Z)

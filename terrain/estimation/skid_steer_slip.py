@@ -661,11 +661,15 @@ def run_with_pseudo_slip(t_grid_s: np.ndarray, samples: Mapping[str, SensorSampl
         # its own grid: on a grid of uneven steps it counted some as outside)
         first = a - 1 if parts else a
         x0, P0 = (parts[-1].x[-1], parts[-1].P[-1]) if parts else (None, None)
+        # the first segment takes the samples of the whole grid's first step (one of a
+        # single step, a slip window on t_0, took those of the second before the grid)
         part = run_filter(model, t_grid_s[first:b], _own_samples(base, t_grid_s, a, b),
                           gate=gate, x0=x0, P0=P0, store_covariance=True, engine="numpy",
                           step_bounds=None if bounds is None
                           else (bounds[0][first:b], bounds[1][first:b]),
-                          step_bound_movable=SPEED_BOUND_MOVABLE)
+                          step_bound_movable=SPEED_BOUND_MOVABLE,
+                          first_step_s=(t_grid_s[1] - t_grid_s[0]
+                                        if first == 0 and t_grid_s.size > 1 else None))
         parts.append(_from_step(part, a - first))
     return _concatenate(parts)
 

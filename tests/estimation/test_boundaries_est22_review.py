@@ -118,3 +118,32 @@ def test_a_rim_spike_widens_the_speed_bound_over_exactly_hold_s(t0, rate, k, j):
     lower, upper = speed_bounds_m_s(grid, SensorSamples(grid, rim), -0.5, 0.0, hold_s=k / rate)
     widened = np.flatnonzero(upper > upper[k:].min() + 1e-12)
     np.testing.assert_array_equal(widened[widened >= k], np.arange(j, j + k))
+
+
+# -- a pseudo-measurement on the first grid step: a first segment of one step ---------------
+
+def test_a_pseudo_slip_on_the_first_step_keeps_the_samples_before_the_grid_outside():
+    # the grid's first step takes the samples of (t_0 - dt, t_0]; a slip window placed on
+    # t_0 made run_with_pseudo_slip's first segment one step long, and a grid of one step
+    # took the samples of the second before it: a wheel sample 0.2 s before a 100 Hz grid
+    # was used (and one at -0.5 s superseded) where the whole run counts both as outside
+    from terrain.estimation import SensorSamples, run_filter
+    from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SkidSteerSlipModel,
+                                                    SkidSteerSlipSettings, _speed_bounds,
+                                                    run_with_pseudo_slip)
+    grid = np.arange(301) * 0.01
+    tw = np.r_[-0.5, -0.2, -0.004, np.arange(1, 300) * 0.01 + 0.003]
+    wheels = SensorSamples(tw, np.column_stack([np.full(tw.size, 1.0), np.full(tw.size, 1.2)]))
+    s = SkidSteerSlipSettings()
+    tp = np.array([0.0, 1.0, 2.0])
+    sp = np.column_stack([np.full(3, 0.1), np.full(3, 0.12)])
+    seg = run_with_pseudo_slip(grid, {"wheels": wheels}, s, tp, sp, np.full(3, s.slip_std))
+    whole = run_filter(SkidSteerSlipModel(s), grid,
+                       {"wheels": wheels, "slip_model": SensorSamples(tp, sp)},
+                       store_covariance=True, engine="numpy",
+                       step_bounds=_speed_bounds(grid, wheels, s),
+                       step_bound_movable=SPEED_BOUND_MOVABLE)
+    assert seg.counts == whole.counts
+    assert whole.counts["wheels"]["outside"] == 2 and whole.counts["wheels"]["used"] == 300
+    np.testing.assert_allclose(seg.x, whole.x, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(seg.P, whole.P, rtol=0, atol=1e-12)
