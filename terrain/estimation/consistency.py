@@ -190,11 +190,13 @@ def mean_chi2_bounds(dof: float, n_samples: float, probability: float = 0.95
 
 
 def _check_max_lag(owner: str, max_lag: int) -> None:
-    """Refuse a lag window of no lag: ``max_lag < 1`` (a negative one sliced the
-    autocorrelation from the end and summed nearly every lag)."""
-    config_numbers(owner, max_lag=max_lag)
-    if not max_lag >= 1:
-        raise ConfigError(f"{owner}: max_lag must be >= 1 (lags summed), got {max_lag!r}")
+    """Refuse a lag window that is not an integer >= 1: a negative one sliced the
+    autocorrelation from the end and summed nearly every lag, a float (2.5, or 2000.0 on a
+    series longer than it) was a bare TypeError of the slice. ``max_lag = 1`` sums no lag
+    (the lags summed are ``1 .. max_lag - 1``): tau 1, the samples taken as independent."""
+    if not (is_integer(max_lag) and max_lag >= 1):
+        raise ConfigError(f"{owner}: max_lag must be an integer >= 1 (lags 1 .. max_lag - 1 "
+                          f"are summed; 1: none), got {max_lag!r}")
 
 
 def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
@@ -210,7 +212,8 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
         Finite values along the last axis (e.g. NEES over time, or the accelerometer
         samples of each window).
     max_lag : int
-        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples.
+        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples (an integer
+        >= 1; 1 sums none: tau 1).
     threshold : float
         The sum stops at the first lag whose autocorrelation is below it.
 
@@ -223,8 +226,9 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     Raises
     ------
     ConfigError
-        ``max_lag`` not a number >= 1 (a negative one summed nearly every lag), or
-        ``threshold`` not a finite real number (NaN, a boolean, text).
+        ``max_lag`` not an integer >= 1 (a negative one summed nearly every lag, a float
+        was a bare TypeError), or ``threshold`` not a finite real number (NaN, a boolean,
+        text).
     EstimationError
         Booleans given for the series (a mask's 0/1 steps were read as a correlated signal).
     """
@@ -264,7 +268,8 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     series : ndarray, shape (N,)
         Values (e.g. NEES over time).
     max_lag : int
-        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples.
+        The sum runs over lags ``1 .. min(N, max_lag) - 1`` at most, samples (an integer
+        >= 1; 1 sums none: ``N``).
 
     Returns
     -------
@@ -274,7 +279,7 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
     Raises
     ------
     ConfigError
-        ``max_lag`` not a number >= 1 (:func:`integrated_autocorrelation_time`).
+        ``max_lag`` not an integer >= 1 (:func:`integrated_autocorrelation_time`).
     ShapeError
         ``series`` not one-dimensional (rows of several series were joined end to end into
         one: a (2, 500) array gave 17.9 where its rows give 500 and 4.6).

@@ -147,3 +147,35 @@ def test_a_pseudo_slip_on_the_first_step_keeps_the_samples_before_the_grid_outsi
     assert whole.counts["wheels"]["outside"] == 2 and whole.counts["wheels"]["used"] == 300
     np.testing.assert_allclose(seg.x, whole.x, rtol=0, atol=1e-12)
     np.testing.assert_allclose(seg.P, whole.P, rtol=0, atol=1e-12)
+
+
+# -- the lag window of the autocorrelation time: lags 1 .. max_lag - 1 ----------------------
+
+def test_the_autocorrelation_window_sums_lags_below_max_lag_and_one_sums_none():
+    from terrain.estimation.consistency import (effective_sample_size,
+                                                integrated_autocorrelation_time)
+    x = np.repeat(np.random.default_rng(3).standard_normal(60), 5)    # correlated over 5
+    n = x.size
+    d = x - x.mean()
+    acf = np.array([d[:n - k] @ d[k:] for k in range(n)]) / (d @ d)
+    for max_lag in (1, 2, 3, 5):
+        # every lag below 5 is above the 0.05 threshold: the sum is lags 1 .. max_lag - 1
+        want = 1.0 + 2.0 * acf[1:max_lag].sum()
+        assert float(integrated_autocorrelation_time(x, max_lag)) == pytest.approx(want)
+    assert float(integrated_autocorrelation_time(x, 1)) == 1.0        # no lag: independent
+    assert effective_sample_size(x, 1) == n
+    # the window as long as the series: every lag, the same as any longer one
+    assert float(integrated_autocorrelation_time(x, n)) == float(
+        integrated_autocorrelation_time(x, 10 * n))
+
+
+@pytest.mark.parametrize("max_lag", [2.5, 1.5, np.float64(3.7)])
+def test_a_lag_window_that_is_not_a_whole_number_of_lags_is_refused_by_name(max_lag):
+    from terrain.errors import ConfigError
+    from terrain.estimation.consistency import (effective_sample_size,
+                                                integrated_autocorrelation_time)
+    x = np.random.default_rng(0).standard_normal(100)
+    with pytest.raises(ConfigError, match="max_lag must be an integer"):
+        integrated_autocorrelation_time(x, max_lag=max_lag)
+    with pytest.raises(ConfigError, match="max_lag must be an integer"):
+        effective_sample_size(x, max_lag=max_lag)
