@@ -115,12 +115,14 @@ def robust_noise_std(values: np.ndarray, rate_hz: float, window_s: float = 0.5) 
     rate_hz : float
         Sampling rate, Hz.
     window_s : float
-        Moving-average window, s.
+        Moving-average window, s: ``round(window_s rate_hz)`` samples, made odd (the next
+        odd number, so that it is centred) and at least 3 (0.5 s at 100 Hz: 51 samples).
 
     Returns
     -------
     ndarray, shape (d,) (or a 0-d array for 1-D input), units of ``values``.
-        NaN for a column with fewer finite samples than the window (none at all included).
+        NaN for a column with fewer finite samples than the window (none at all included);
+        a column of exactly as many has its value.
 
     Raises
     ------

@@ -179,3 +179,17 @@ def test_a_lag_window_that_is_not_a_whole_number_of_lags_is_refused_by_name(max_
         integrated_autocorrelation_time(x, max_lag=max_lag)
     with pytest.raises(ConfigError, match="max_lag must be an integer"):
         effective_sample_size(x, max_lag=max_lag)
+
+
+# -- robust_noise_std: the window in samples and a column exactly as long as it ---------------
+
+@pytest.mark.parametrize("window_s, rate_hz, w", [
+    (0.5, 100.0, 51), (0.5, 50.0, 25), (0.5, 6.5, 3), (0.01, 100.0, 3), (0.2, 30.0, 7),
+    (1.0, 15.0, 15)])
+def test_robust_noise_std_needs_as_many_finite_samples_as_its_odd_window(window_s, rate_hz, w):
+    from terrain.estimation.prefilter import robust_noise_std
+    x = np.random.default_rng(1).standard_normal(w)
+    assert np.isfinite(robust_noise_std(x, rate_hz, window_s))           # exactly w
+    assert np.isnan(robust_noise_std(x[:-1], rate_hz, window_s))         # one fewer
+    # a non-finite sample does not count
+    assert np.isnan(robust_noise_std(np.r_[x[:-1], np.nan], rate_hz, window_s))
