@@ -193,3 +193,41 @@ def test_robust_noise_std_needs_as_many_finite_samples_as_its_odd_window(window_
     assert np.isnan(robust_noise_std(x[:-1], rate_hz, window_s))         # one fewer
     # a non-finite sample does not count
     assert np.isnan(robust_noise_std(np.r_[x[:-1], np.nan], rate_hz, window_s))
+
+
+# -- the chi-square gate and the consistency bounds: exactly at the threshold ----------------
+
+def test_a_group_whose_nis_equals_the_gate_threshold_is_accepted_one_ulp_above_rejected():
+    # Gate: rejected when the NIS *exceeds* the quantile; S = 1 makes the NIS y^2 exactly
+    from terrain.estimation.ekf import Gate, correct
+    gate = Gate(0.999)
+    thr = gate.threshold(1)
+    y = np.sqrt(thr)
+    assert y * y == thr                      # (this quantile is a square in floats)
+    above = np.nextafter(y, np.inf)
+    assert above * above > thr
+    P, H, R = np.array([[0.5]]), np.array([[1.0]]), np.array([0.5])
+    for value, ok in ((y, True), (-y, True), (above, False)):
+        _, _, inn = correct(np.zeros(1), P, np.array([value]), H, R, gate=gate)
+        assert bool(inn.accepted[0]) is ok
+        assert (inn.nis == thr) if ok else np.isnan(inn.nis)
+
+
+def test_a_mean_nis_on_a_bound_of_its_interval_is_inside_it():
+    from terrain.estimation.consistency import ChiSquareTest
+    lo, hi = 0.8, 1.25
+    for mean, inside in ((lo, True), (hi, True), (np.nextafter(lo, 0.0), False),
+                         (np.nextafter(hi, 2.0), False)):
+        test = ChiSquareTest(float(mean), 1.0, 100, 100.0, (lo, hi), (lo, hi), 1.0)
+        assert test.inside is inside
+        assert test.as_dict("nis")["nis_inside"] == float(inside)
+
+
+def test_values_on_the_pointwise_chi_square_quantiles_count_as_inside():
+    from scipy import stats
+    from terrain.estimation.consistency import chi2_test
+    a = (1.0 - 0.95) / 2.0       # (0.025000000000000022: the tail of the float 0.95)
+    lo, hi = stats.chi2.ppf([a, 1.0 - a], 2)
+    assert chi2_test(np.array([lo, hi, lo, hi]), 2).fraction_in_pointwise == 1.0
+    out = np.array([np.nextafter(lo, 0.0), hi, lo, np.nextafter(hi, np.inf)])
+    assert chi2_test(out, 2).fraction_in_pointwise == 0.5
