@@ -91,8 +91,9 @@ class SkidSteerSettings:
     v0_std, yaw_rate0_std : float
         Prior standard deviations of the speed (m/s) and yaw rate (rad/s).
     chi_min_yaw_rate_rad_s : float
-        ``chi`` is corrected only while the estimated yaw rate exceeds this (rad/s): below
-        it the wheel rows still use ``chi`` but their Jacobian column for ``ln(chi)`` is
+        ``chi`` is corrected only while the estimated yaw rate is at least this in
+        magnitude (rad/s; exactly at it: corrected): below it the wheel rows still use
+        ``chi`` but their Jacobian column for ``ln(chi)`` is
         zero (``chi`` is a *consider* parameter there). Without this, a gyro bias seen
         while driving straight can be explained either by a yaw rate (pulling ``chi``
         towards 0) or by the bias; the filter then slowly drives ``chi`` down and learns

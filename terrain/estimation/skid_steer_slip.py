@@ -130,7 +130,8 @@ class SkidSteerSlipSettings:
     pitch0_std : float
         Prior standard deviation of the pitch, rad.
     chi_min_yaw_rate_rad_s : float
-        ``chi`` is corrected only above this yaw rate, rad/s.
+        ``chi`` is corrected only where the estimated yaw rate is at least this in
+        magnitude, rad/s (exactly at it: corrected).
     slip_std : float
         Standard deviation of the slip pseudo-measurement rows (set per segment by
         :func:`run_with_pseudo_slip` from the slip model's own std).

@@ -231,3 +231,25 @@ def test_values_on_the_pointwise_chi_square_quantiles_count_as_inside():
     assert chi2_test(np.array([lo, hi, lo, hi]), 2).fraction_in_pointwise == 1.0
     out = np.array([np.nextafter(lo, 0.0), hi, lo, np.nextafter(hi, np.inf)])
     assert chi2_test(out, 2).fraction_in_pointwise == 0.5
+
+
+# -- the ICR factor's yaw-rate threshold: corrected from |yaw_rate| = threshold on -----------
+
+@pytest.mark.parametrize("slip_model", [False, True])
+def test_chi_is_corrected_from_a_yaw_rate_exactly_at_its_threshold(slip_model):
+    if slip_model:
+        from terrain.estimation.skid_steer_slip import (STATE_NAMES, SkidSteerSlipModel as M,
+                                                        SkidSteerSlipSettings as S)
+    else:
+        from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerModel as M,
+                                                   SkidSteerSettings as S)
+    model = M(S())
+    limit = S().chi_min_yaw_rate_rad_s
+    w, chi = STATE_NAMES.index("yaw_rate"), STATE_NAMES.index("log_icr_chi")
+    for yaw_rate, corrected in ((limit, True), (-limit, True),
+                                (np.nextafter(limit, 0.0), False),
+                                (np.nextafter(-limit, 0.0), False)):
+        x = np.array(model.x0, dtype=float)
+        x[0], x[w] = 1.0, yaw_rate
+        _, H = model.observation(x)
+        assert bool(np.any(H[:2, chi] != 0.0)) is corrected
