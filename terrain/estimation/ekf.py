@@ -127,6 +127,8 @@ def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np
         a = np.diag(a)
     if a.shape != (size, size):
         raise ShapeError(f"{name} must have shape ({size}, {size}), got {a.shape}")
+    if not size:     # of no row (a reduction over it was NumPy's bare ValueError)
+        return a
     if not np.isfinite(a).all():
         raise NonFiniteInputError(f"{name} has non-finite entries")
     scale = max(float(np.abs(a).max()), 1e-300)
@@ -427,6 +429,7 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
     P_post : ndarray, shape (n, n)
         Joseph-form update, symmetrised.
     innovation : Innovation
+        With no row (``m = 0``): the state and covariance unchanged, NIS NaN, dof 0.
 
     Raises
     ------
@@ -457,6 +460,9 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
         R = as_covariance(R, m, "R", definite=True)
         if groups is not None:
             groups = _row_partition(groups, m)
+    if m == 0:      # no row: nothing to correct (LAPACK's bare ValueError before)
+        return x.copy(), P.copy(), Innovation(y, np.zeros((0, 0)), float("nan"),
+                                              np.zeros(0, dtype=bool))
     R = np.asarray(R, dtype=float)
     r_diag = R if R.ndim == 1 else None
     HP = np.dot(H, P)
@@ -806,7 +812,7 @@ class ExtendedKalmanFilter:
             Extra arguments passed to ``h``, ``H``.
         rows : sequence of int, optional
             Rows of the full measurement vector present in ``z``: distinct integers in
-            ``0 .. m-1``.
+            ``0 .. m-1`` (none: nothing to correct, NIS NaN).
         R : ndarray, shape (len(z),) or (len(z), len(z)), optional
             Measurement noise of this update only (e.g. of a block-averaged or adaptively
             weighted row), units of ``z`` squared; None: the filter's ``R`` of these rows.
@@ -827,7 +833,8 @@ class ExtendedKalmanFilter:
             idx = np.asarray(rows)
             # per update (the control loop's estimators): a set of the few row numbers, not
             # np.unique and two reductions (0.7 against 5 us, a sixth of a small update)
-            ids = idx.tolist() if idx.ndim == 1 and idx.dtype.kind in "iu" else None
+            ids = (idx.tolist() if idx.ndim == 1 and (idx.dtype.kind in "iu" or not idx.size)
+                   else None)      # ([] is a float array: no row, an update of none)
             if ids is None or len(set(ids)) != len(ids) or (
                     ids and not (0 <= min(ids) and max(ids) < self._m)):
                 raise ShapeError(f"rows must be distinct integers in 0..{self._m - 1}, got "

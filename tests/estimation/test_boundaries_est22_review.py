@@ -253,3 +253,31 @@ def test_chi_is_corrected_from_a_yaw_rate_exactly_at_its_threshold(slip_model):
         x[0], x[w] = 1.0, yaw_rate
         _, H = model.observation(x)
         assert bool(np.any(H[:2, chi] != 0.0)) is corrected
+
+
+# -- an update with no measurement row (count 0) ---------------------------------------------
+
+@pytest.mark.parametrize("check", [True, False])
+def test_a_correction_with_no_row_leaves_the_state_and_has_no_nis(check):
+    # (NumPy's bare 'zero-size array to reduction operation maximum' / LAPACK's 'unexpected
+    # array size' before)
+    from terrain.estimation.ekf import Gate, correct
+    x, P = np.array([1.0, 2.0]), np.diag([0.5, 0.25])
+    for gate in (None, Gate(0.99)):
+        x1, P1, inn = correct(x, P, np.zeros(0), np.zeros((0, 2)), np.zeros(0), gate=gate,
+                              check=check)
+        np.testing.assert_array_equal(x1, x)
+        np.testing.assert_array_equal(P1, P)
+        assert np.isnan(inn.nis) and inn.dof == 0 and inn.accepted.shape == (0,)
+        assert inn.S.shape == (0, 0)
+
+
+def test_a_streaming_update_of_no_rows_is_a_no_op():
+    from terrain.estimation.ekf import ExtendedKalmanFilter
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), lambda x, dt: x, lambda x, dt: np.eye(2),
+                               lambda x: x.copy(), lambda x: np.eye(2), 0.1 * np.eye(2),
+                               np.ones(2))
+    inn = ekf.update(np.zeros(0), rows=[])
+    assert np.isnan(inn.nis) and inn.dof == 0
+    np.testing.assert_array_equal(ekf.x, np.zeros(2))
+    np.testing.assert_array_equal(ekf.P, np.eye(2))
