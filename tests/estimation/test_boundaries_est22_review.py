@@ -281,3 +281,32 @@ def test_a_streaming_update_of_no_rows_is_a_no_op():
     assert np.isnan(inn.nis) and inn.dof == 0
     np.testing.assert_array_equal(ekf.x, np.zeros(2))
     np.testing.assert_array_equal(ekf.P, np.eye(2))
+
+
+# -- the adaptive observer: a step of exactly twice the median is no time gap -----------------
+
+@pytest.mark.parametrize("factor, gap", [(2.0, False), (2.0 + 2.0 ** -10, True)])
+def test_an_observer_step_of_exactly_twice_the_median_is_corrected_over_its_length(factor, gap):
+    # 'a step longer than twice the median step' is a gap (corrected over one median step,
+    # predicted over the rest); one of exactly twice is corrected over its whole length
+    from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
+    from terrain.vehicles.skid_steer import body_rates
+    h = 0.125                                     # (binary-exact times)
+    t = np.r_[0.0, h, 2 * h, 2 * h + factor * h, 3 * h + factor * h, 4 * h + factor * h]
+    theta = np.array([0.0, 0.01, 0.03, 0.02, 0.05, 0.04])
+    pose = np.column_stack([np.zeros(6), np.zeros(6), theta])
+    vr, vl = np.full(6, 0.6), np.full(6, 0.4)
+    s = AdaptiveObserverSettings(use_position=False)
+    res = run_adaptive_observer(t, pose, vr, vl, s)
+    er, el = res.eta[2]
+    _, w = body_rates(vl[2] * el, vr[2] * er, 2.0 * s.half_track_m, 1.0)
+    step = t[3] - t[2]
+    corrected_over = h if gap else step
+    # yaw: corrected (l3 e) over corrected_over, predicted (e = 0) over the rest; the rest's
+    # rate uses the etas after the correction, equal to before up to the adaptation
+    th = res.pose_hat[2, 2] + corrected_over * (w + s.l_gains[2] * res.error[2, 2])
+    if gap:
+        er2, el2 = res.eta[3]
+        _, w2 = body_rates(vl[2] * el2, vr[2] * er2, 2.0 * s.half_track_m, 1.0)
+        th += (step - h) * w2
+    assert res.pose_hat[3, 2] == pytest.approx(th, abs=1e-12)
