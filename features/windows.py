@@ -225,6 +225,13 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     return out
 
 
+#: Speeds within this of a steady-motion limit count as on it, m/s: the float mean and spread
+#: of equal samples carry rounding (100 samples of 0.1 m/s average to 0.09999999999999998
+#: m/s, and their std is 3e-17 m/s, not 0), which dropped a window driven exactly at a limit;
+#: the rounding of a window's mean stays below 1e-13 m/s (a million samples of 10 m/s), and
+#: a window 1e-9 m/s beyond a limit is still beyond it.
+STEADY_ROUNDING_M_S = 1e-12
+
 #: Most samples one window may hold (a 10 000 s window at 100 Hz): longer windows are a
 #: typo, not an experiment, and would allocate their whole grid before any run is cut.
 MAX_WINDOW_SAMPLES = 1_000_000
@@ -248,7 +255,9 @@ class WindowConfig:
         windows never cross a partition boundary (the papers' protocol uses 5 s).
     steady_only : bool
         Keep only windows in steady motion: |mean(vel_mean)| >= ``min_speed_m_s`` and
-        std(vel_mean) <= ``max_speed_std_m_s`` (thesis ch. 8.1 uses steady-motion windows).
+        std(vel_mean) <= ``max_speed_std_m_s``, both limits inclusive (a value within
+        :data:`STEADY_ROUNDING_M_S` of a limit is on it; thesis ch. 8.1 uses
+        steady-motion windows).
         It needs the wheel stream whatever the signals: runs without it are skipped, and a
         window whose wheel speeds are not all finite is dropped as a gap.
     min_speed_m_s, max_speed_std_m_s : float
@@ -671,8 +680,11 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         counts["dropped_gap"] += int(v_gap.sum())
         keep &= ~v_gap
         steady = np.zeros(len(keep), dtype=bool)
-        steady[keep] = ((np.abs(v[keep].mean(axis=1)) >= config.min_speed_m_s)
-                        & (v[keep].std(axis=1) <= config.max_speed_std_m_s))
+        # (a window driven exactly at a limit is on it despite the float rounding)
+        floor = config.min_speed_m_s - STEADY_ROUNDING_M_S
+        spread = config.max_speed_std_m_s + STEADY_ROUNDING_M_S
+        steady[keep] = ((np.abs(v[keep].mean(axis=1)) >= floor)
+                        & (v[keep].std(axis=1) <= spread))
         counts["dropped_unsteady"] = int((keep & ~steady).sum())
         keep &= steady
     t0 = t[start]
