@@ -17,8 +17,8 @@ statistics from :mod:`features.calculators`. Per window:
 Targets (simulated runs, ``truth`` stream): window means of ``slip_1``, ``slip_2``, the lateral
 body velocity ``v_by`` and the
 effective turning factor ``chi = mean(v_R - v_L) / (B mean(yaw_rate))`` (NaN when the robot
-turns slower than :data:`MIN_TURN_RATE_RAD_S`), which with the measured rim speeds gives the
-true yaw rate ``(v_R - v_L) / (chi B)``.
+turns slower than :data:`MIN_TURN_RATE_RAD_S`; defined at it), which with the measured rim
+speeds gives the true yaw rate ``(v_R - v_L) / (chi B)``.
 """
 
 from __future__ import annotations
@@ -43,8 +43,14 @@ SLIP_CHANNELS = ("cur_l", "cur_r", "vel_l", "vel_r", "vel_diff", "cur_diff",
                  "yaw_rate_wheels", "ax", "ay", "az", "wz")
 #: Windows of the slip models: 2 s, hop 1 s, on the 50 Hz aligned clock.
 SLIP_WINDOW = WindowConfig(window_s=2.0, hop_s=1.0)
-#: Below this |yaw rate| (rad/s) a window's chi target is undefined.
+#: Below this |yaw rate| (rad/s) a window's chi target is undefined; at it (to a relative
+#: 1e-9, :data:`TURN_RATE_ROUNDING`) it is defined.
 MIN_TURN_RATE_RAD_S = 0.1
+#: Relative allowance of :data:`MIN_TURN_RATE_RAD_S` for the rounding of a window's mean
+#: yaw rate, taken from the truth's running sum (a steady 0.1 rad/s turn averaged to
+#: 0.09999999999999995 rad/s late in a 10 min run, which left chi undefined); the rounding
+#: grows with the running sum, 3e-12 relative after 10 h at 100 Hz.
+TURN_RATE_ROUNDING = 1e-9
 #: Floor of the wheel yaw rate in the ``inv_chi`` regression, rad/s.
 INV_CHI_FLOOR_RAD_S = 0.05
 
@@ -344,7 +350,8 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     pandas.DataFrame, shape (n_windows, 6)
         ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
         ``terrain``; a mean is NaN where its window holds no truth sample or a NaN or inf
-        one (that window only).
+        one (that window only), and ``chi`` where the window's mean ``|yaw_rate|`` is below
+        :data:`MIN_TURN_RATE_RAD_S` (a turn at exactly that rate has one).
 
     Raises
     ------
@@ -382,7 +389,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     ch = {c: i for i, c in enumerate(ws.channels)}
     dv = (ws.X[:, ch["vel_r"]] - ws.X[:, ch["vel_l"]]).mean(axis=-1)
     yaw = out["yaw_rate"].to_numpy(float)
-    turning = np.abs(yaw) >= MIN_TURN_RATE_RAD_S
+    turning = np.abs(yaw) >= MIN_TURN_RATE_RAD_S * (1.0 - TURN_RATE_ROUNDING)
     out["chi"] = np.where(turning, dv / (track_m * np.where(turning, yaw, 1.0)), np.nan)
     for c in ("slip_1", "slip_2", "yaw_rate", "chi", "v_by"):
         out[c] = out[c].astype(float)
