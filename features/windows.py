@@ -245,7 +245,7 @@ class WindowConfig:
     ----------
     window_s : float
         Window length, s (finite, > 0; at most :data:`MAX_WINDOW_SAMPLES` samples at
-        ``rate_hz``).
+        ``rate_hz``, counted as :attr:`n_samples` rounds them).
     hop_s : float or None
         Step between window starts, s; ``None`` means ``window_s`` (no overlap).
     rate_hz : float
@@ -304,10 +304,14 @@ class WindowConfig:
         if self.partition_s is not None and not self.window_s <= self.partition_s < math.inf:
             raise ConfigError(f"partition_s must be finite and >= window_s, got "
                               f"{self.partition_s} s")
-        if self.window_s * self.rate_hz > MAX_WINDOW_SAMPLES:
+        samples = self.window_s * self.rate_hz     # (inf where the product overflows)
+        if math.isinf(samples) or round(samples) > MAX_WINDOW_SAMPLES:
+            # the cap is on the rounded count, the window's length (1 000 000.4 samples,
+            # a window of 1 000 000, were refused as "holds 1e+06 samples")
+            count = f"{round(samples):,}" if samples < 1e15 else f"{samples:.3g}"
             raise ConfigError(f"a window of {self.window_s:g} s at {self.rate_hz:g} Hz holds "
-                              f"{self.window_s * self.rate_hz:.3g} samples; at most "
-                              f"{MAX_WINDOW_SAMPLES:,} (a shorter window or a lower rate)")
+                              f"{count} samples; at most {MAX_WINDOW_SAMPLES:,} (a shorter "
+                              "window or a lower rate)")
         if round(self.window_s * self.rate_hz) < 4:
             raise ConfigError(f"a window must hold at least 4 samples: a window of "
                               f"{self.window_s:g} s at {self.rate_hz:g} Hz holds "

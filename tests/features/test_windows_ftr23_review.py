@@ -8,7 +8,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from features.windows import WindowConfig, window_frame
+from features.windows import MAX_WINDOW_SAMPLES, WindowConfig, window_frame
+from terrain.errors import ConfigError
 from terrain.run import TIME
 
 
@@ -57,3 +58,25 @@ def test_the_steady_limits_still_separate_windows_off_them(vel, steady):
     config = WindowConfig(steady_only=True)
     X, _, _, _, counts = window_frame(_wheel_frame(vel), ["vel_l"], config)
     assert len(X) == int(steady) and counts["dropped_unsteady"] == int(not steady)
+
+
+@pytest.mark.parametrize("window_s, n_samples", [
+    (10_000.004, MAX_WINDOW_SAMPLES),      # 1 000 000.4 samples: rounds to the cap
+    (10_000.005, MAX_WINDOW_SAMPLES),      # 1 000 000.4999999999: the cap
+    (9_999.996, MAX_WINDOW_SAMPLES),       # 999 999.6: rounds up to the cap
+])
+def test_a_window_that_rounds_to_the_sample_cap_is_allowed(window_s, n_samples):
+    """A window holds ``n_samples = round(window_s * rate_hz)`` samples, at most
+    :data:`MAX_WINDOW_SAMPLES`: one that rounds to exactly the cap is allowed. The cap was
+    checked on the unrounded product, so 10 000.004 s at 100 Hz (a window of 1 000 000
+    samples) was refused as 'holds 1e+06 samples; at most 1,000,000'."""
+    assert WindowConfig(window_s=window_s, rate_hz=100.0).n_samples == n_samples
+
+
+@pytest.mark.parametrize("window_s", [10_000.006, 10_000.01, 1e300])
+def test_a_window_that_rounds_past_the_sample_cap_is_refused_with_its_count(window_s):
+    """One sample past the cap is refused, and the message states the rounded count (not
+    '1e+06', which read as the cap itself)."""
+    with pytest.raises(ConfigError, match=r"at most 1,000,000 \(a shorter window") as err:
+        WindowConfig(window_s=window_s, rate_hz=100.0)
+    assert "1e+06 samples" not in str(err.value)
