@@ -27,6 +27,9 @@ DEFAULT_STATS = tuple(calculators.STATISTICS)
 #: a width typed in the wrong unit (1e-6 Hz at 50 Hz: 25 million bands, each a feature of
 #: every channel) is refused before any is built.
 MAX_BANDS = 10_000
+#: Bands of :func:`linear_bands` narrower than this are dropped, Hz: the sliver the float
+#: edges leave below the Nyquist frequency when it is a multiple of the width.
+_NARROWEST_BAND_HZ = 1e-9
 
 
 def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, float], ...]:
@@ -56,13 +59,16 @@ def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, flo
     """
     config_positive("linear_bands", rate_hz=rate_hz, band_width_hz=band_width_hz)
     nyquist = rate_hz / 2.0
-    n_bands = math.ceil(nyquist / band_width_hz)
+    # the bands made, the sliver dropped (ceil(nyquist / width) counted it: 374.1 Hz at
+    # 0.018705 Hz, exactly MAX_BANDS bands, was 10000.000000000002, so 10001, and refused)
+    n_bands = math.ceil((nyquist - _NARROWEST_BAND_HZ) / band_width_hz)
     if n_bands > MAX_BANDS:
         raise ConfigError(f"linear_bands: band_width_hz {band_width_hz:g} Hz cuts 0-{nyquist:g} "
                           f"Hz into {n_bands} bands, more than {MAX_BANDS} (each is a feature "
                           "of every channel); is the width in Hz?")
     edges = np.append(np.arange(0.0, nyquist, band_width_hz), nyquist)
-    return tuple((float(a), float(b)) for a, b in zip(edges[:-1], edges[1:]) if b - a > 1e-9)
+    return tuple((float(a), float(b)) for a, b in zip(edges[:-1], edges[1:])
+                 if b - a > _NARROWEST_BAND_HZ)
 
 
 def _band_name(lo: float, hi: float) -> str:
