@@ -241,6 +241,12 @@ MAX_WINDOW_SAMPLES = 1_000_000
 class WindowConfig:
     """How runs are cut into windows.
 
+    The window, hop and partition lengths become whole samples of the aligned clock by
+    rounding ``length_s * rate_hz`` to the nearest integer (:attr:`n_samples`,
+    :attr:`hop_samples`, :attr:`partition_samples`); a length of exactly half a sample more
+    goes to the even count, as Python's ``round`` does (1 s at 6.5 Hz is 6 samples, 3 s is
+    20; a 0.5 s hop at 15 Hz is 8 samples).
+
     Parameters
     ----------
     window_s : float
@@ -324,17 +330,19 @@ class WindowConfig:
 
     @property
     def n_samples(self) -> int:
-        """Samples per window."""
+        """Samples per window: ``round(window_s * rate_hz)`` (a tie to the even count)."""
         return int(round(self.window_s * self.rate_hz))
 
     @property
     def hop_samples(self) -> int:
-        """Samples between window starts."""
+        """Samples between window starts: ``round(hop_s * rate_hz)`` (``window_s`` without
+        a hop; a tie to the even count)."""
         return max(1, int(round((self.hop_s or self.window_s) * self.rate_hz)))
 
     @property
     def partition_samples(self) -> int | None:
-        """Samples per partition (None without ``partition_s``)."""
+        """Samples per partition: ``round(partition_s * rate_hz)`` (a tie to the even
+        count; None without ``partition_s``)."""
         return None if self.partition_s is None else int(round(self.partition_s * self.rate_hz))
 
 

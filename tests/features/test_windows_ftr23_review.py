@@ -80,3 +80,57 @@ def test_a_window_that_rounds_past_the_sample_cap_is_refused_with_its_count(wind
     with pytest.raises(ConfigError, match=r"at most 1,000,000 \(a shorter window") as err:
         WindowConfig(window_s=window_s, rate_hz=100.0)
     assert "1e+06 samples" not in str(err.value)
+
+
+@settings(max_examples=150, deadline=None)
+@given(st.sampled_from([6.5, 15.0, 50.0, 100.0, 1 / 0.1538]), st.integers(4, 40),
+       st.integers(1, 60), st.integers(0, 130), st.one_of(st.none(), st.integers(0, 40)))
+def test_window_starts_cover_the_run_to_its_last_sample(rate_hz, n, hop, total, extra):
+    """Windows start every ``hop`` samples from the first while a whole window fits, so the
+    number of windows of a frame (or partition) of ``total`` samples is
+    ``(total - n) // hop + 1`` (0 below ``n``): a window exactly as long as the frame is
+    cut, and a window ending on the last sample too. Windows, the gaps a longer hop leaves
+    between them, the tail after the last window and the tail after the last partition add
+    up to the frame, to the sample."""
+    partition = None if extra is None else n + extra
+    config = WindowConfig(window_s=n / rate_hz, hop_s=hop / rate_hz, rate_hz=rate_hz,
+                          partition_s=None if partition is None else partition / rate_hz)
+    assert (config.n_samples, config.hop_samples) == (n, hop)
+    assert config.partition_samples == partition
+    frame = _wheel_frame(0.5, total, rate_hz)
+    X, t0, t1, part, counts = window_frame(frame, ["vel_l"], config)
+    spans = [(0, total)] if partition is None else [
+        (s, s + partition) for s in range(0, total - partition + 1, partition)]
+    expected = sum((b - a - n) // hop + 1 for a, b in spans if b - a >= n)
+    assert len(X) == expected
+    starts = np.rint(t0 * rate_hz).astype(int)
+    for k, s in zip(part, starts):       # each window inside its partition
+        a, b = spans[k]
+        assert a <= s and s + n <= b
+    covered = sum(min(hop, n) * (c - 1) + n for c in np.bincount(part, minlength=len(spans))
+                  if c)
+    # (windows of one partition overlap when hop < n: each sample counted once)
+    total_s = (covered / rate_hz + counts["between_windows_s"] + counts["window_tail_s"]
+               + counts["partition_tail_s"])
+    assert total_s == pytest.approx(total / rate_hz, abs=1e-9)
+    np.testing.assert_allclose(t1 - t0, n / rate_hz, rtol=1e-12)
+    if len(X):
+        np.testing.assert_array_equal(X[:, 0], 0.5)
+
+
+@pytest.mark.parametrize("length_s, rate_hz, samples", [
+    (2.0, 6.5, 13), (2.0, 15.0, 30), (2.0, 50.0, 100), (2.0, 100.0, 200),
+    (1.0, 6.5, 6), (3.0, 6.5, 20), (5.0, 6.5, 32),     # ties: to the even count
+    (0.5, 15.0, 8), (1.5, 15.0, 22), (1.7, 50.0, 85), (0.1, 50.0, 5),
+    (2.0, 1 / 0.1538, 13),                              # 13.003901 samples
+])
+def test_lengths_in_seconds_round_to_the_nearest_sample_ties_to_even(length_s, rate_hz,
+                                                                     samples):
+    """Window, hop and partition lengths are ``round(length_s * rate_hz)`` samples, a tie
+    (half a sample) going to the even count (documented on :class:`WindowConfig`)."""
+    shortest = 4 / rate_hz
+    assert WindowConfig(window_s=shortest, hop_s=length_s, rate_hz=rate_hz).hop_samples == \
+        samples
+    if samples >= 4:
+        config = WindowConfig(window_s=length_s, rate_hz=rate_hz, partition_s=length_s)
+        assert config.n_samples == config.partition_samples == samples
