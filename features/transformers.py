@@ -36,7 +36,12 @@ def linear_bands(rate_hz: float, band_width_hz: float) -> tuple[tuple[float, flo
     """Contiguous bands ``[k w, (k+1) w)`` from 0 Hz to the Nyquist frequency ``rate_hz/2``.
 
     The last band is cut at the Nyquist frequency when ``rate_hz/2`` is not a multiple of
-    ``band_width_hz``; bands narrower than 1e-9 Hz are dropped.
+    ``band_width_hz``; bands narrower than 1e-9 Hz are dropped. Each upper edge being
+    exclusive, the FFT bin at exactly the Nyquist frequency (that of a window of an even
+    number of samples) lies in no band (but where a band holding no bin borrows it as its
+    nearest, :func:`features.calculators.band_weights`); every other bin lies in one band.
+    A tone at the Nyquist frequency still shows in the last band, through the Hann taper's
+    leakage into the bin below (:func:`features.calculators.band_log_power`).
 
     Parameters
     ----------
