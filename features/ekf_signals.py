@@ -102,8 +102,8 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Parameters
     ----------
     X : numpy.ndarray
-        ``(n_windows, n_channels, n_samples)`` gap-free aligned windows holding ``vel_l``,
-        ``vel_r`` (m/s) and ``wz`` (rad/s) among their channels.
+        ``(n_windows, n_channels, n_samples)``, ``n_samples >= 2``, gap-free aligned
+        windows holding ``vel_l``, ``vel_r`` (m/s) and ``wz`` (rad/s) among their channels.
     channels : sequence of str
         Channel names of axis 1 of ``X``.
     rate_hz : float
@@ -127,7 +127,8 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
     terrain.errors.EstimationError
         ``X`` holds booleans (a mask: cast, they ran the filter on speeds of 0 and 1 m/s).
     terrain.errors.ShapeError, terrain.errors.NonFiniteInputError
-        ``X`` not 3-D, or a non-finite sample.
+        ``X`` not 3-D or of windows of fewer than 2 samples (the filter needs a step), or
+        a non-finite sample.
     """
     names = list(channels)
     missing = [c for c in ("vel_l", "vel_r", "wz") if c not in names]
