@@ -33,7 +33,7 @@ from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_window
 from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
                             real_arrays, refuse_booleans)
 from terrain.io.align import interpolated_mean_count
-from terrain.run import TIME, Run, runs_by_id
+from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
                                   pitch_std_from_accelerometer)
@@ -318,13 +318,15 @@ def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndar
                   ) -> np.ndarray:
     # the mean of the samples in [t0, t1) of each column; NaN where the window holds none,
     # or holds a NaN or inf (counted apart: in the running sum one made every later window
-    # NaN)
+    # NaN). A sample on an edge (within 1e-9 s, the project's placement rule step_index)
+    # is the window's it starts: by raw float comparison the 100 Hz truth sample k * 0.01
+    # on a 1.7 s window's end fell inside it in 6 % of the windows
+    a = step_index(t, t0)
+    b = step_index(t, t1)
     missing = ~np.isfinite(values)
     zero = np.zeros((1, values.shape[1]))
     csum = np.vstack([zero, np.cumsum(np.where(missing, 0.0, values), axis=0)])
     cnan = np.vstack([zero, np.cumsum(missing, axis=0)])
-    a = np.searchsorted(t, t0, side="left")
-    b = np.searchsorted(t, t1, side="left")
     n = np.maximum(b - a, 1)[:, None]
     out = (csum[b] - csum[a]) / n
     out[b <= a] = np.nan
@@ -349,9 +351,11 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     -------
     pandas.DataFrame, shape (n_windows, 6)
         ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
-        ``terrain``; a mean is NaN where its window holds no truth sample or a NaN or inf
-        one (that window only), and ``chi`` where the window's mean ``|yaw_rate|`` is below
-        :data:`MIN_TURN_RATE_RAD_S` (a turn at exactly that rate has one).
+        ``terrain``; each a mean of the truth samples in ``[t_start_s, t_end_s)`` (a sample
+        within 1e-9 s of an edge on it, :func:`terrain.run.step_index`); a mean is NaN
+        where its window holds no truth sample or a NaN or inf one (that window only), and
+        ``chi`` where the window's mean ``|yaw_rate|`` is below :data:`MIN_TURN_RATE_RAD_S`
+        (a turn at exactly that rate has one).
 
     Raises
     ------

@@ -46,3 +46,30 @@ def test_chi_is_undefined_just_below_the_minimum_rate():
     rate has no chi target."""
     run, ws = _turning(MIN_TURN_RATE_RAD_S - 1e-9, duration_s=60.0)
     assert slip_targets([run], ws)["chi"].isna().all()
+
+
+@settings(max_examples=12, deadline=None)
+@given(st.sampled_from([(1.7, 50.0), (2.0, 50.0), (1.0, 25.0), (5.0, 100.0), (1.7, 20.0)]),
+       st.integers(0, 200))
+def test_a_truth_sample_on_a_window_edge_goes_to_the_window_it_starts(window, first):
+    """A window's targets are means of the truth samples in ``[t_start_s, t_end_s)``: the
+    one stamped on ``t_start_s`` in, the one on ``t_end_s`` (the next window's first) out.
+    The simulator stamps its 100 Hz truth ``k * 0.01`` and the aligned grid ``i / rate``;
+    raw float comparison put the sample on the end inside in 6 % of 1.7 s windows at
+    50 Hz (171 samples), so the mean of a ramp was off by half a sample."""
+    window_s, rate_hz = window
+    n = round(window_s * rate_hz)
+    per = round(100 / rate_hz) if rate_hz <= 100 else 1
+    tt = np.arange(0.0, 60.0 + 1e-9, 0.01)                  # the simulator's truth clock
+    truth = pd.DataFrame({TIME: tt, "slip_1": np.arange(len(tt), dtype=float),
+                          "slip_2": 0.0, "yaw_rate": 0.5, "v_by": 0.0, "terrain": "SNOW"})
+    run = Run("sim1", "sim", "SNOW", {"truth": truth})
+    grid = np.arange(int(55 * rate_hz)) / rate_hz           # the aligned clock
+    starts = np.arange(first, len(grid) - n, 3)
+    t0 = grid[starts]
+    X = np.zeros((len(t0), len(SLIP_CHANNELS), n))
+    ids = np.array(["sim1"] * len(t0), dtype=object)
+    ws = WindowSet(X, SLIP_CHANNELS, ids, ids, ids, t0, t0 + n / rate_hz, rate_hz)
+    got = slip_targets([run], ws)["slip_1"].to_numpy()
+    held = n * per                                           # truth samples in a window
+    np.testing.assert_allclose(got, starts * per + 0.5 * (held - 1), rtol=0, atol=1e-9)
