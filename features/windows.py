@@ -275,8 +275,9 @@ class WindowConfig:
         A length or rate that is not a real number (text, a bool, a list) or not a finite
         positive number, ``partition_s`` shorter than ``window_s``, a window of fewer than
         4 or more than :data:`MAX_WINDOW_SAMPLES` samples, a hop that rounds to no sample
-        (window starts and lengths are rounded to whole samples) or holds more samples than
-        a float counts (``hop_s * rate_hz`` infinite), or a steady-motion
+        (window starts and lengths are rounded to whole samples), a hop or partition that
+        holds more samples than a float counts (``hop_s * rate_hz`` or ``partition_s *
+        rate_hz`` infinite), or a steady-motion
         threshold that is not a finite number >= 0 (NaN made every window unsteady), or a
         ``steady_only`` that is not True or False (text, a number, None).
     """
@@ -299,17 +300,19 @@ class WindowConfig:
                               f"{self.window_s} s and {self.rate_hz} Hz")
         if self.hop_s is not None and not 0 < self.hop_s < math.inf:
             raise ConfigError(f"hop_s must be a finite number > 0 s, got {self.hop_s}")
-        if self.hop_s is not None and not math.isfinite(self.hop_s * self.rate_hz):
-            # round() of the overflowed count raised a bare OverflowError (1e308 s at 100 Hz)
-            raise ConfigError(f"hop_s {self.hop_s:g} s at {self.rate_hz:g} Hz is more samples "
-                              "than a count can hold (give a shorter hop)")
+        if self.partition_s is not None and not self.window_s <= self.partition_s < math.inf:
+            raise ConfigError(f"partition_s must be finite and >= window_s, got "
+                              f"{self.partition_s} s")
+        for name, length_s in (("hop", self.hop_s), ("partition", self.partition_s)):
+            if length_s is not None and not math.isfinite(length_s * self.rate_hz):
+                # round() of the overflowed count raised a bare OverflowError (1e308 s at
+                # 100 Hz: the hop's at construction, the partition's when cutting)
+                raise ConfigError(f"{name}_s {length_s:g} s at {self.rate_hz:g} Hz is more "
+                                  f"samples than a count can hold (give a shorter {name})")
         if self.hop_s is not None and round(self.hop_s * self.rate_hz) < 1:
             # it was cut at one sample while the run logged the hop asked for
             raise ConfigError(f"hop_s {self.hop_s:g} s is under one sample at {self.rate_hz:g} "
                               f"Hz ({1 / self.rate_hz:g} s): windows start on samples")
-        if self.partition_s is not None and not self.window_s <= self.partition_s < math.inf:
-            raise ConfigError(f"partition_s must be finite and >= window_s, got "
-                              f"{self.partition_s} s")
         samples = self.window_s * self.rate_hz     # (inf where the product overflows)
         if math.isinf(samples) or round(samples) > MAX_WINDOW_SAMPLES:
             # the cap is on the rounded count, the window's length (1 000 000.4 samples,

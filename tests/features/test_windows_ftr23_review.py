@@ -134,3 +134,15 @@ def test_lengths_in_seconds_round_to_the_nearest_sample_ties_to_even(length_s, r
     if samples >= 4:
         config = WindowConfig(window_s=length_s, rate_hz=rate_hz, partition_s=length_s)
         assert config.n_samples == config.partition_samples == samples
+
+
+@pytest.mark.parametrize("field", ["hop_s", "partition_s"])
+def test_a_length_whose_sample_count_overflows_is_refused_at_construction(field):
+    """A finite hop or partition whose sample count overflows a float (1e308 s at 100 Hz)
+    is a ConfigError naming it; the partition's was accepted and ended in a bare
+    OverflowError of round() when the first frame was cut."""
+    with pytest.raises(ConfigError, match=rf"{field} 1e\+308 s at 100 Hz is more samples"):
+        WindowConfig(window_s=1.0, rate_hz=100.0, **{field: 1e308})
+    ok = WindowConfig(window_s=1.0, rate_hz=100.0, partition_s=1e300)    # counts: fine
+    X, *_, counts = window_frame(_wheel_frame(0.5, 300, 100.0), ["vel_l"], ok)
+    assert len(X) == 0 and counts["partition_tail_s"] == pytest.approx(3.0)
