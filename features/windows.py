@@ -652,10 +652,12 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     if missing:     # (checked before a frame shorter than one window returns)
         raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "
                           f"{missing} column(s)")
-    n, hop = config.n_samples, config.hop_samples
     values = frame[list(channels)].to_numpy(dtype=float)
     t = frame[TIME].to_numpy()
     total = len(t)
+    # a hop past the frame cuts its first window only, as one of the frame's length does
+    # (a count past 64 bits, 1e17 s at 100 Hz, made the starts floats: NumPy's IndexError)
+    n, hop = config.n_samples, min(config.hop_samples, max(total, 1))
     tail = 0
     if config.partition_s is None:
         bounds = [(0, total)]

@@ -146,3 +146,14 @@ def test_a_length_whose_sample_count_overflows_is_refused_at_construction(field)
     ok = WindowConfig(window_s=1.0, rate_hz=100.0, partition_s=1e300)    # counts: fine
     X, *_, counts = window_frame(_wheel_frame(0.5, 300, 100.0), ["vel_l"], ok)
     assert len(X) == 0 and counts["partition_tail_s"] == pytest.approx(3.0)
+
+
+@pytest.mark.parametrize("hop_s", [3.0, 4.0, 1e15, 1e17, 1e300])
+def test_a_hop_longer_than_the_frame_cuts_its_first_window_only(hop_s):
+    """A hop at least as long as the frame cuts one window, at its first sample, whatever
+    the hop: one of 1e17 s at 100 Hz (1e19 samples, past a 64-bit count) made the window
+    starts a float array and ended in NumPy's bare IndexError."""
+    config = WindowConfig(window_s=1.0, rate_hz=100.0, hop_s=hop_s)
+    X, t0, _, _, counts = window_frame(_wheel_frame(0.5, 300, 100.0), ["vel_l"], config)
+    assert len(X) == 1 and t0[0] == 0.0
+    assert counts["window_tail_s"] == pytest.approx(2.0) and counts["between_windows_s"] == 0
