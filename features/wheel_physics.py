@@ -260,7 +260,7 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         Length of the second, recent time scale, s; ``None``: whole window only. Also
         whole window only (no ``__last...s`` names) where it rounds to fewer than 3
         samples (too few for the fits) or to the whole window or more (the same features
-        twice).
+        twice; also a length whose sample count overflows a float, 1e308 s at 100 Hz).
     track_m : float
         Track width B, m.
     ridge : float
@@ -286,8 +286,10 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
 
     def _scales(self, n_samples: int) -> list[tuple[str, int]]:
         scales = [("", n_samples)]
-        if self.short_s is not None:
-            m = int(round(self.short_s * self.rate_hz))
+        count = None if self.short_s is None else self.short_s * self.rate_hz
+        # (a count past a float, 1e308 s at 100 Hz, is past any window: round() overflowed)
+        if count is not None and np.isfinite(count):
+            m = int(round(count))
             if 3 <= m < n_samples:
                 scales.append((f"__last{self.short_s:g}s", m))
         return scales
