@@ -160,7 +160,8 @@ class TractionLoop:
         slip in it), from standstill on, where the estimate is not stale; on the decided
         catalogued terrain, or while the table's fallback applies (no, a low-confidence or a
         stale decision) on the terrain the fallback's traction target comes from
-        (:func:`fallback_basis`). Where the limit binds (``engaged``) the correction applied
+        (:func:`fallback_basis`); none where the traction target is 1 (full spin: no ground
+        speed limits the wheel). Where the limit binds (``engaged``) the correction applied
         is the one that slows the wheel more; elsewhere the feedback's, so a braking
         correction (which speeds a locking wheel up) is never replaced by the feed-forward's 0.
     observer : callable, optional
@@ -279,7 +280,11 @@ class TractionLoop:
         correction = out.correction_rad_s
         ff_terrain = (targets.terrain if targets.terrain in TERRAIN_NAMES
                       else self._fallback_basis)
-        if self.feed_forward and ff_terrain in TERRAIN_NAMES:
+        if self.feed_forward and ff_terrain in TERRAIN_NAMES and targets.traction >= 1.0:
+            # a traction target of 1 (in a DesiredSlip's range (0, 1]) allows full spin: no
+            # ground speed limits the wheel (feedforward_step refuses it), no limit binds
+            self.ff_engaged = np.zeros_like(self.ff_engaged)
+        elif self.feed_forward and ff_terrain in TERRAIN_NAMES:
             key = (ff_terrain, float(targets.traction))
             if key not in self._accel_limit:
                 self._accel_limit[key] = traction_acceleration_limit(
