@@ -42,6 +42,28 @@ WHEEL_CHANNELS = ("vel_l", "vel_r", "cur_l", "cur_r")
 VEHICLE_NAMES: tuple[str, ...] = ("agrimaro", "husky", "tracked")
 
 
+def clock_slack(t_s) -> np.ndarray:
+    """Rounding slack of a time comparison near ``t_s``, s: 1 ns, or 64 units in the last
+    place of the clock where that is more.
+
+    Two times on one grid (``t0 + k period``) differ from their grid difference by a few
+    units in the last place: 2.4e-7 s each on an epoch clock (~1.7e9 s), where a slack of
+    1 ns put a sample exactly on a boundary on either side of it by the clock's origin.
+    Far below a sample period either way; 1 ns on a clock that starts near 0.
+
+    Parameters
+    ----------
+    t_s : float or array-like
+        Time(s) compared, s.
+
+    Returns
+    -------
+    ndarray
+        Slack, s, of the shape of ``t_s``.
+    """
+    return np.maximum(1e-9, 64.0 * np.spacing(np.abs(np.asarray(t_s, dtype=float))))
+
+
 def step_index(t_grid_s: np.ndarray, t_s, clip: bool = False) -> np.ndarray:
     """Step of a time grid each sample time belongs to: the first step at or after it.
 

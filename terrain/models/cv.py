@@ -32,6 +32,7 @@ from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, Stra
 from terrain.errors import (ConfigError, ShapeError, config_integer, duplicated, first_items,
                             is_integer, listed, refuse_missing)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
+from terrain.run import clock_slack
 
 PROTOCOLS = ("grouped", "loro", "paper")
 PAPER_RANDOM_STATE = 21
@@ -89,15 +90,6 @@ def split_single_run_classes(labels: np.ndarray, groups: np.ndarray, t_start_s: 
     return groups, split
 
 
-def _clock_slack(t_s) -> np.ndarray:
-    """Rounding slack (s) of window bounds near ``t_s``: 1 ns, or 64 units in the last
-    place of the clock where that is more. A window's end (first sample + n periods) and the
-    next window's start (a later grid sample) round apart by a few units in the last place:
-    2.4e-7 s each on an epoch clock (~1.7e9 s), where 1 ns made abutting windows overlap
-    and changed the cut with the clock's origin. Far below a sample period either way."""
-    return np.maximum(1e-9, 64.0 * np.spacing(np.abs(np.asarray(t_s, dtype=float))))
-
-
 def purge_block_overlaps(groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.ndarray,
                          t_end_s: np.ndarray) -> np.ndarray:
     """Keep-mask that removes windows overlapping another split unit of the same run.
@@ -126,7 +118,7 @@ def purge_block_overlaps(groups: np.ndarray, run_ids: np.ndarray, t_start_s: np.
         starts = sorted(float(t_start_s[sel][groups[sel] == u].min()) for u in units)
         for boundary in starts[1:]:
             keep[sel[(t_start_s[sel] < boundary)
-                     & (t_end_s[sel] > boundary + _clock_slack(boundary))]] = False
+                     & (t_end_s[sel] > boundary + clock_slack(boundary))]] = False
     return keep
 
 
@@ -246,8 +238,8 @@ def training_units(run_ids: np.ndarray, t_start_s: np.ndarray, t_end_s: np.ndarr
             units[dense] = run_units[0]
             continue
         for i in dense:
-            hit = own[(t_start_s[own] < train_t_end_s[i] - _clock_slack(train_t_end_s[i]))
-                      & (t_end_s[own] > train_t_start_s[i] + _clock_slack(train_t_start_s[i]))]
+            hit = own[(t_start_s[own] < train_t_end_s[i] - clock_slack(train_t_end_s[i]))
+                      & (t_end_s[own] > train_t_start_s[i] + clock_slack(train_t_start_s[i]))]
             hit_units = np.unique(groups[hit])
             if len(hit_units) == 1:
                 units[i] = hit_units[0]
