@@ -46,6 +46,7 @@ from terrain.estimation.equations.skid_steer_slip import MAX_SLIP
 from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, STATE_NAMES,
                                                 SkidSteerSlipModel, SkidSteerSlipSettings,
                                                 rim_speed_range_m_s)
+from terrain.run import clock_slack
 from terrain.sim.closed_loop import Observation
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.physics import PhysicsSlipSettings, physics_slip
@@ -325,7 +326,9 @@ class AgriMaRoVisualOdometryEKF:
         ``adapt_blocks`` blocks (used from the second such difference on: one difference is
         no estimate) and floored at the white-noise variance of a block mean,
         ``accel_std_m_s2^2 / n`` (``n`` the block's samples; a block closes at the first
-        sample ``accel_block_s`` after its first, so at 100 Hz a 0.1 s block holds 11).
+        sample ``accel_block_s`` after its first, within the clock's rounding
+        (:func:`terrain.run.clock_slack`), so at 100 Hz a 0.1 s block holds 11 on any
+        clock).
 
         Parameters
         ----------
@@ -347,7 +350,8 @@ class AgriMaRoVisualOdometryEKF:
             self._block_t0 = t
         self._block_sum = self._block_sum + a_xy
         self._block_n += 1
-        if t - self._block_t0 < self.accel_block_s - 1e-9:
+        # (1 ns of slack alone: on an epoch clock the sample one block later fell short)
+        if t - self._block_t0 < self.accel_block_s - clock_slack(t):
             return
         n, mean = self._block_n, self._block_sum / self._block_n
         self._block_sum, self._block_n = np.zeros(2), 0
@@ -515,8 +519,10 @@ class FusedSlipObserver:
     * the pseudo-measurement of the side slips: the physics slip
       (:func:`terrain.slip.physics.physics_slip`: motor current -> torque -> traction ->
       stable-side inverse of the decided terrain's curve) of the last ``window_s`` of
-      current and wheel samples, every ``period_s``, with its std floored by
-      :func:`terrain.slip.estimate.pseudo_measurement`; the terrain is the loop's decision
+      current and wheel samples, every ``period_s`` (within the clock's rounding,
+      :func:`terrain.run.clock_slack`: on any clock's origin at the same calls), with its
+      std floored by :func:`terrain.slip.estimate.pseudo_measurement`; the terrain is the
+      loop's decision
       (no pseudo-measurement without a catalogued decision);
     * the controller's inputs: each side's ground speed implied by the measured wheel speed
       and the estimated slip through the model's wheel row
@@ -726,7 +732,9 @@ class FusedSlipObserver:
         keep = obs.t_s - self.window_s - 1.0
         self.wheel_rows = [w for w in self.wheel_rows if w[0] >= keep]
         self.current_rows = [c for c in self.current_rows if c[0] >= keep]
-        if self.current_rows and obs.t_s - self.t_pseudo >= self.period_s - 1e-9:
+        # one period later within the clock's rounding (1 ns alone skipped such a call on an
+        # epoch clock: 0.22 s between pseudo-measurements)
+        if self.current_rows and obs.t_s - self.t_pseudo >= self.period_s - clock_slack(obs.t_s):
             self._pseudo(obs.t_s)
             self._bound_speed(obs.t_s)
         # the ground speed the measured wheel speed and the estimated slip imply, through the

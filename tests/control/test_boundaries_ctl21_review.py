@@ -48,3 +48,56 @@ def test_loop_runs_with_a_traction_target_at_the_top_of_its_range(traction):
         assert not loop.ff_engaged.any()
         # the feedback alone: slip 0.5 against a target of 1 leaves the wheel as it is
         assert np.all(corr == 0.0)
+
+
+# --- estimators on an epoch clock: a sample exactly one block / one period later ----------------
+
+EPOCH_S = 1.7e9   # a robot's log stamped in Unix time
+
+
+@pytest.mark.parametrize("t0", [0.0, EPOCH_S, EPOCH_S + 0.003])
+def test_averaged_imu_block_holds_eleven_samples_at_100_hz_on_any_clock(t0):
+    """AgriMaRoVisualOdometryEKF's ``full-averaged`` view: "a block closes at the first
+    sample accel_block_s after its first, so at 100 Hz a 0.1 s block holds 11". The block
+    compared ``t - t_first`` with 0.1 s less 1 ns; on an epoch clock the difference of two
+    stamps rounds by 2.4e-7 s, so the sample 0.1 s later fell short and the block held 12
+    (its first std 0.8 / sqrt(12), not / sqrt(11))."""
+    from terrain.control.estimators import AgriMaRoVisualOdometryEKF
+
+    est = AgriMaRoVisualOdometryEKF(imu="full-averaged")
+    stds = []
+    for k in range(12):
+        t = t0 + k * 0.01
+        row = np.array([[t, 0.0, 0.0, 0.0, 0.1, 0.0, 9.81]])   # t, wx wy wz ax ay az
+        est.update(observation(t, np.zeros(3), imu_full=row))
+        stds.append(est.accel_block_std_m_s2[0])
+    assert np.all(np.isnan(stds[:10]))          # samples 0..9: the block still open
+    # sample 10, 0.1 s after the first, closes it: the floor of an 11-sample mean (0.8 m/s^2)
+    assert stds[10] == pytest.approx(0.8 / np.sqrt(11), rel=1e-12)
+
+
+@pytest.mark.parametrize("t0", [EPOCH_S, EPOCH_S + 0.007, 1.23456789e9])
+def test_fused_observer_takes_a_pseudo_measurement_every_period_on_any_clock(t0):
+    """FusedSlipObserver: a pseudo-measurement "every period_s" (0.2 s: every 10th call at
+    50 Hz). It compared the time since the last one with period_s less 1 ns; on an epoch
+    clock that difference rounds by 2.4e-7 s, and a call exactly one period later was
+    skipped: on a BorealTC run stamped from 1.7e9 s, 16 of 58 intervals were 0.22 s. The
+    calls that take one must not depend on the clock's origin."""
+    from terrain.control.estimators import FusedSlipObserver
+
+    def taken(origin):
+        est = FusedSlipObserver("husky", lambda t: ("ASPHALT", 1.0))
+        calls = []
+        for k in range(120):
+            t = origin + k * 0.02
+            before = est.t_pseudo
+            est.update(observation(t, np.full(2, 5.0),
+                                   wheels=np.array([[t, 5.0, 5.0]]),
+                                   currents=np.array([[t, 2.0, 2.0]])))
+            if est.t_pseudo != before:
+                calls.append(k)
+        return calls
+
+    expected = taken(0.0)
+    assert expected == list(range(0, 120, 10))
+    assert taken(t0) == expected
