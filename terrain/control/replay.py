@@ -58,7 +58,10 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
 
     Calls are at ``t0, t0 + 1/rate, ...`` from the later of the two streams' first samples
     (``t0``) to the earlier of their last; each call carries the samples after the previous
-    call up to and including its own time (the first call also those at ``t0``). Wheel
+    call up to and including its own time (the first call also those at ``t0``); a sample
+    stamped after a call's time by the clock's rounding alone (2.4e-7 s on an epoch clock,
+    a sample logged at the call's time) goes to the next call: no call receives a sample
+    stamped after it, whose age would be negative. Wheel
     speeds become encoder rates ``vel / r``; currents are reported as magnitudes, as the
     loop's drives report them. Both IMU views carry the logged samples: ``imu_full`` all six
     channels, ``imu`` its ``ax, ay, wz``, with the gravity and the vibration that the
