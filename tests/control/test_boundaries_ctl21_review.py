@@ -5,6 +5,7 @@ from types import MappingProxyType
 
 import numpy as np
 import pytest
+from hypothesis import given, settings, strategies as st
 
 from terrain.control.closed_loop import TractionLoop
 from terrain.control.desired_slip import (DesiredSlip, DesiredSlipConfig, SlipTable,
@@ -147,3 +148,116 @@ def test_replay_never_hands_a_call_a_sample_stamped_after_it_on_any_clock(t0):
         assert np.all(c.t_s - c.wheels[:, 0] < 0.02 + 1e-6)
     assert replay.dropped_before_start == {"imu": 0, "wheels": 0}
     assert replay.dropped_after_end == {"imu": 0, "wheels": 0}
+
+
+# --- the traction step's thresholds: exactly at each, and one ulp either side -----------------
+
+def _up(x):
+    return float(np.nextafter(x, np.inf))
+
+
+def _down(x):
+    return float(np.nextafter(x, -np.inf))
+
+
+def _step(cfg=None, targets=None, omega=1.0, v=1.0, acc=0.0, chassis=1.0, dt=0.02, age=0.0,
+          state=None, omega_ll=1.0):
+    from terrain.control.traction import SlipTargets, TractionState, traction_control_step
+
+    cfg = cfg or TractionControlConfig()                      # r 1 m: omega r = omega
+    targets = targets or SlipTargets(0.1, -0.15, 0.05)
+    state = TractionState.zeros(1) if state is None else state
+    return traction_control_step(cfg, state, targets, np.array([omega_ll]), np.array([omega]),
+                                 np.array([v]), np.array([acc]), chassis, dt, age)
+
+
+@settings(max_examples=60, deadline=None)
+@given(threshold=st.floats(0.0, 5.0, allow_subnormal=False))
+def test_chassis_speed_exactly_at_the_threshold_does_not_enable(threshold):
+    """"the correction reaches the motors only while the chassis speed *exceeds*
+    chassis_speed_threshold_m_s" (ch. 8.3.2: "only if the robot's global velocity exceeds
+    the predetermined threshold"): at it, disabled; one ulp above, enabled."""
+    cfg = TractionControlConfig(chassis_speed_threshold_m_s=threshold)
+    at, _ = _step(cfg, chassis=threshold)
+    above, _ = _step(cfg, chassis=_up(threshold))
+    assert not at.enabled[0] and above.enabled[0]
+    assert not at.safe[0] and not above.safe[0]
+
+
+@pytest.mark.parametrize("threshold", [0.05, 0.384, 1.0])
+def test_wheel_speed_exactly_at_the_threshold_is_controlled(threshold):
+    """Per-wheel enable: "the error is 0 *below* wheel_speed_threshold_m_s" (the wheel's
+    speed max(|omega r|, |v_long|)), and sae_slip's dead band zeroes the slip only where
+    both speeds are *below* it: at the threshold the slip is measured and the error acts;
+    one ulp below, error and slip are 0. The two rules agree at the edge (a slip zeroed
+    by the dead band while the error acts would drive the wheel towards its target)."""
+    cfg = TractionControlConfig(wheel_speed_threshold_m_s=threshold)
+    at, _ = _step(cfg, omega=0.5 * threshold, v=threshold)        # rim half the ground speed
+    below, _ = _step(cfg, omega=0.5 * threshold, v=_down(threshold))
+    assert at.slip[0] == pytest.approx(-0.5) and at.error[0] != 0.0
+    assert below.slip[0] == 0.0 and below.error[0] == 0.0
+
+
+@pytest.mark.parametrize("sign, mode", [(1.0, 1), (-1.0, -1)])
+def test_power_exactly_at_the_threshold_is_steady(sign, mode):
+    """Eqs. 8.7-8.9: traction where Power_state > threshold, braking where < -threshold,
+    steady for -threshold <= Power_state <= threshold (both ends steady); one ulp beyond,
+    traction or braking."""
+    from terrain.control.traction import STEADY
+
+    thr = TractionControlConfig().power_threshold_m2_s3           # v_long 1 m/s: power = a
+    at, _ = _step(acc=sign * thr)
+    beyond, _ = _step(acc=float(np.nextafter(sign * thr, sign * np.inf)))
+    assert at.mode[0] == STEADY and beyond.mode[0] == mode
+
+
+@settings(max_examples=60, deadline=None)
+@given(max_age=st.floats(1e-6, 10.0))
+def test_input_age_exactly_at_the_limit_is_fresh(max_age):
+    """age_is_fresh: ages in [0, max_input_age_s] are trusted, both ends included: exactly
+    at the limit (and at 0) the controller acts; one ulp older, or one ulp before 0 (a
+    stamp after the step), the safe output."""
+    cfg = TractionControlConfig(max_input_age_s=max_age)
+    for age, safe in ((max_age, False), (_up(max_age), True), (0.0, False),
+                      (_down(0.0), True)):
+        out, _ = _step(cfg, age=age)
+        assert out.safe[0] == safe, age
+
+
+def test_targets_at_the_ends_of_their_ranges_are_accepted_and_one_ulp_beyond_refused():
+    """check_slip_targets: traction in (0, 1], braking in [-1, 0), steady in [0, 1]: the
+    closed ends (1, -1, 0 and 1) are targets; one ulp beyond each, and the open ends
+    themselves (a traction of 0, a braking of 0), are refused by name."""
+    from terrain.control.traction import SlipTargets
+    from terrain.errors import ConfigError
+
+    for targets in ((1.0, -1.0, 1.0), (_up(0.0), _down(0.0), 0.0)):
+        out, _ = _step(targets=SlipTargets(*targets), v=1.0, omega=1.5)
+        assert np.all(np.isfinite(out.omega_cmd_rad_s))
+    for bad, name in (((_up(1.0), -0.5, 0.1), "traction"), ((0.0, -0.5, 0.0), "traction"),
+                      ((0.5, _down(-1.0), 0.1), "braking"), ((0.5, 0.0, 0.1), "braking"),
+                      ((0.5, -0.5, _down(0.0)), "steady"), ((0.5, -0.5, _up(1.0)), "steady")):
+        with pytest.raises(ConfigError, match=f"SlipTargets.{name}"):
+            SlipTargets(*bad)
+
+
+def test_first_step_after_reset_has_no_derivative_and_integrates_one_step():
+    """After reset the memory is empty: the first step's derivative is 0 whatever the
+    previous slip was (no slip_prev is valid), and its integral is ki e dt alone, so an
+    unsaturated output is (kp + ki dt) e."""
+    from terrain.control.traction import SlipTargets, TractionController
+
+    cfg = TractionControlConfig(kp=2.0, ki=10.0, kd=5.0, one_sided=False,
+                                chassis_speed_threshold_m_s=0.0)
+    ctl = TractionController(cfg, 1)
+    targets = SlipTargets(0.1, -0.15, 0.05)
+    args = (np.array([10.0]), np.array([12.0]), np.array([10.0]), np.array([1.0]), 10.0,
+            0.02)
+    for _ in range(5):                       # memory: slip, derivative, integral
+        ctl.step(targets, *args)
+    ctl.reset()
+    first = ctl.step(targets, np.array([10.0]), np.array([10.5]), np.array([10.0]),
+                     np.array([1.0]), 10.0, 0.02)
+    e = first.error[0]
+    assert first.enabled[0] and e != 0.0
+    assert first.correction_rad_s[0] == pytest.approx((2.0 + 10.0 * 0.02) * e, rel=1e-12)
