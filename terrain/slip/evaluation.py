@@ -549,7 +549,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
       ``(v_R - v_L)/(chi B)`` with the predicted ``chi`` clipped to :data:`CHI_RANGE`;
     * slip vs currents: median |learned - physics| slip (the physics slip is computed from
       the measured currents, :mod:`terrain.slip.physics`) and the Spearman correlation of the
-      learned slip with the mean current, over straight windows.
+      learned slip with the mean current, over straight windows (gyro |yaw rate| < 0.05
+      rad/s; the correlation NaN with fewer than four of them, the median NaN with none).
 
     Parameters
     ----------
