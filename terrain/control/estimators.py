@@ -519,7 +519,8 @@ class FusedSlipObserver:
     * the pseudo-measurement of the side slips: the physics slip
       (:func:`terrain.slip.physics.physics_slip`: motor current -> torque -> traction ->
       stable-side inverse of the decided terrain's curve) of the last ``window_s`` of
-      current and wheel samples, every ``period_s`` (within the clock's rounding,
+      current and wheel samples (those at or after ``t - window_s``, the sample exactly
+      ``window_s`` back included), every ``period_s`` (within the clock's rounding,
       :func:`terrain.run.clock_slack`: on any clock's origin at the same calls), with its
       std floored by :func:`terrain.slip.estimate.pseudo_measurement`; the terrain is the
       loop's decision
@@ -663,7 +664,9 @@ class FusedSlipObserver:
         label = self.terrain_decision(t)[0] if self.terrain_decision else None
         if label is None or str(label).upper() not in TERRAIN_NAMES:
             return
-        t0 = t - self.window_s
+        # at or after t - window_s within the clock's rounding: the sample exactly window_s
+        # back was in or out by the rounding of t - window_s (25 or 26 at 50 Hz)
+        t0 = t - self.window_s - clock_slack(t)
         cur = np.array([c for c in self.current_rows if c[0] >= t0])
         wheels = np.array([w for w in self.wheel_rows if w[0] >= t0])
         if len(cur) == 0 or len(wheels) == 0:

@@ -261,3 +261,29 @@ def test_first_step_after_reset_has_no_derivative_and_integrates_one_step():
     e = first.error[0]
     assert first.enabled[0] and e != 0.0
     assert first.correction_rad_s[0] == pytest.approx((2.0 + 10.0 * 0.02) * e, rel=1e-12)
+
+
+@pytest.mark.parametrize("t0", [0.0, 12.34, EPOCH_S + 0.007])
+def test_fused_observer_window_holds_its_start_sample_on_any_clock(t0, monkeypatch):
+    """FusedSlipObserver's physics slip averages "the last window_s of current and wheel
+    samples": those at or after ``t - window_s``. A sample exactly ``window_s`` before the
+    call (0.5 s: 25 calls back at 50 Hz) was in or out by the rounding of ``t - 0.5``: on a
+    clock from 0 s the windows held 26, 25, 26, 26, 25 ... samples (n_averaged, the
+    pseudo-measurement's std, jittered with it); now 26 each on any clock."""
+    import terrain.control.estimators as estimators
+
+    counts = []
+    real = estimators.physics_slip
+
+    def spy(*args, **kwargs):
+        counts.append(kwargs["n_averaged"])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(estimators, "physics_slip", spy)
+    est = estimators.FusedSlipObserver("husky", lambda t: ("ASPHALT", 1.0))
+    for k in range(120):
+        t = t0 + k * 0.02
+        est.update(observation(t, np.full(2, 5.0), wheels=np.array([[t, 5.0, 5.0]]),
+                               currents=np.array([[t, 2.0, 2.0]])))
+    assert counts[:3] == [1.0, 11.0, 21.0]          # the run's first 0, 0.2, 0.4 s
+    assert counts[3:] == [26.0] * (len(counts) - 3)
