@@ -123,7 +123,8 @@ def fallback_basis(table: SlipTable) -> str | None:
 #: elapsed, yet the reference grows by ``a_max`` times this (0.02: ASSUMED, the default 50 Hz
 #: control period, whatever the loop's rate). Kept because the measured figures of
 #: docs/control_validation.md rest on it (with 0 instead: husky ``random`` on SNOW, seed 1,
-#: 4 s, slip RMSE 0.0774 -> 0.0780). The PID assumes nothing: its first call integrates 0.
+#: 4 s, slip RMSE 0.0774 -> 0.0780). The PID assumes nothing: its first call integrates over
+#: the 1 us floor of a repeated time only (``ki e 1e-6``).
 FIRST_FEEDFORWARD_STEP_S = 0.02
 
 
@@ -173,9 +174,10 @@ class TractionLoop:
     log : list of dict
         One record per call (time, ``dt_s`` the interval since the previous call in s, 0 at
         the first call, estimate, controller output, decision, ``fallback`` whether the
-        table's fallback targets applied). The first call integrates
-        nothing (no interval has elapsed, whatever the loop's rate); its derivative is 0
-        (no previous slip); only the feed-forward's first ramp step assumes
+        table's fallback targets applied). The first call integrates over
+        1 us only, the floor of a repeated time (no interval has elapsed, whatever the
+        loop's rate: ``ki e 1e-6`` rad/s, the traction step needs a ``dt_s > 0``); its
+        derivative is 0 (no previous slip); only the feed-forward's first ramp step assumes
         :data:`FIRST_FEEDFORWARD_STEP_S`.
 
     Raises
@@ -255,7 +257,7 @@ class TractionLoop:
         age = None if stamp is None else obs.t_s - float(stamp)
         targets = select_target(self.table, label, conf, decision_age_s=age)
         # the first call has no previous one: no interval has elapsed, so the PID integrates
-        # nothing (dt 0, floored to 1 us as a repeated time); only the feed-forward's first
+        # over 1 us only (dt 0, floored to 1 us as a repeated time); only the feed-forward's first
         # ramp step keeps its ASSUMED length (FIRST_FEEDFORWARD_STEP_S, documented above)
         first = self.t_prev is None
         dt = 0.0 if first else obs.t_s - self.t_prev

@@ -287,3 +287,17 @@ def test_fused_observer_window_holds_its_start_sample_on_any_clock(t0, monkeypat
                                currents=np.array([[t, 2.0, 2.0]])))
     assert counts[:3] == [1.0, 11.0, 21.0]          # the run's first 0, 0.2, 0.4 s
     assert counts[3:] == [26.0] * (len(counts) - 3)
+
+
+def test_loop_first_call_integrates_over_the_one_microsecond_floor_only():
+    """TractionLoop's first call has no previous one: it steps the PID with the 1 us floor
+    of a repeated time, so with kp = kd = 0 its correction is ki e 1e-6 (documented; it was
+    said to integrate nothing), its derivative 0; the second call integrates its interval."""
+    cfg = TractionControlConfig(kp=0.0, ki=100.0, kd=0.0, wheel_radius_m=0.1)
+    loop = TractionLoop(cfg, 2, _Spinning(), _table(0.1), lambda t: ("ICE", 1.0),
+                        feed_forward=False)
+    first = loop(observation(0.0, np.full(2, 10.0)))
+    e = loop.log[0]["desired"] - 0.5                      # slip (1.0 - 0.5) / 1.0
+    np.testing.assert_allclose(first, 100.0 * 1e-6 * e, rtol=1e-9)
+    second = loop(observation(0.02, np.full(2, 10.0)))
+    np.testing.assert_allclose(second, 100.0 * (1e-6 + 0.02) * e, rtol=1e-9)
