@@ -645,7 +645,9 @@ class FusedSlipObserver:
             return
         # the range of a wheel sample holds until the next one; each end is held at its widest
         # over the last hold_s: every sample after t - hold_s and the one current then
-        start = t - self.settings.filter.speed_bound_hold_s
+        # (within the clock's rounding: a sample exactly hold_s back is the one current then,
+        # and the one before it no longer counts)
+        start = t - self.settings.filter.speed_bound_hold_s + clock_slack(t)
         first = max((i for i, row in enumerate(self.bound_rows) if row[0] <= start),
                     default=0)
         self.bound_rows = self.bound_rows[first:]

@@ -301,3 +301,23 @@ def test_loop_first_call_integrates_over_the_one_microsecond_floor_only():
     np.testing.assert_allclose(first, 100.0 * 1e-6 * e, rtol=1e-9)
     second = loop(observation(0.02, np.full(2, 10.0)))
     np.testing.assert_allclose(second, 100.0 * (1e-6 + 0.02) * e, rtol=1e-9)
+
+
+@pytest.mark.parametrize("t0", [0.0, 12.34, EPOCH_S + 0.007])
+def test_fused_observer_speed_bound_keeps_the_sample_current_hold_s_back_only(t0):
+    """The speed bound holds each end at its widest over the last speed_bound_hold_s (1 s):
+    "every sample after t - hold_s and the one current then". A wheel sample exactly hold_s
+    back is the one current then, so the sample before it no longer counts; by the
+    rounding of t - hold_s it was kept on a clock from 0 s at some calls (52 wheel rows, the
+    range widened by a sample 1.02 s old, instead of 51 at 50 Hz)."""
+    from terrain.control.estimators import FusedSlipObserver
+
+    est = FusedSlipObserver("husky", lambda t: ("ASPHALT", 1.0))
+    kept = []
+    for k in range(150):
+        t = t0 + k * 0.02
+        est.update(observation(t, np.full(2, 5.0), wheels=np.array([[t, 5.0, 5.0]]),
+                               currents=np.array([[t, 2.0, 2.0]])))
+        kept.append(len(est.bound_rows))
+        assert est.bound_rows[0][0] >= t - 1.0 - 1e-6        # none older than hold_s
+    assert kept[60:] == [51] * 90
