@@ -31,6 +31,7 @@ from terrain.control.estimators import SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
 from terrain.errors import ConfigError, config_flags, config_numbers
+from terrain.run import clock_slack
 from terrain.sim.closed_loop import Observation
 from terrain.sim.sensors import physics_step_index
 from terrain.sim.simulate import Simulation, motor_currents
@@ -145,7 +146,9 @@ class TractionLoop:
         ``terrain_decision(t_s) -> (label or None, confidence)``: the terrain decision
         available at time ``t_s`` (s), taken as current (age 0); or
         ``(label, confidence, t_decided_s)``: the decision with the time it was made (s), its
-        age ``t_s - t_decided_s`` goes to :func:`~terrain.control.desired_slip.select_target`
+        age ``t_s - t_decided_s`` (0 or ``max_decision_age_s`` where it lies beyond either by
+        the clocks' rounding alone, :func:`terrain.run.clock_slack`) goes to
+        :func:`~terrain.control.desired_slip.select_target`
         (a decision older than the table's ``max_decision_age_s``, or with the time None,
         unknown, gets the fallback).
     apply : bool
@@ -254,7 +257,7 @@ class TractionLoop:
         # a decision of unknown time (stamp None) has no age: the fallback (select_target)
         stamp = decision[2] if len(decision) > 2 else obs.t_s
         config_numbers("terrain_decision", optional=("t_decided_s",), t_decided_s=stamp)
-        age = None if stamp is None else obs.t_s - float(stamp)
+        age = None if stamp is None else self._decision_age(obs.t_s, float(stamp))
         targets = select_target(self.table, label, conf, decision_age_s=age)
         # the first call has no previous one: no interval has elapsed, so the PID integrates
         # over 1 us only (dt 0, floored to 1 us as a repeated time); only the feed-forward's first
@@ -315,6 +318,20 @@ class TractionLoop:
                          "decision_age_s": age, "target_traction": targets.traction,
                          "fallback": targets is self.table.fallback})
         return correction if self.apply else np.zeros_like(correction)
+
+    def _decision_age(self, t_s: float, t_decided_s: float) -> float:
+        """``t_s - t_decided_s``, s, taken as exactly 0 or ``max_decision_age_s`` where it
+        lies beyond either by the clocks' rounding alone (:func:`terrain.run.clock_slack`):
+        on a 50 Hz call grid a decision 200 calls old read 4.000000000000001 s, one stamped
+        at the call by another rounding a negative age, and both got the fallback."""
+        age = t_s - t_decided_s
+        if not math.isfinite(age):   # a stamp at +-inf or NaN: no age, the fallback
+            return age
+        slack = float(clock_slack(max(abs(t_s), abs(t_decided_s))))
+        cap = self.table.config.max_decision_age_s
+        if cap < age <= cap + slack:
+            return cap
+        return 0.0 if -slack <= age < 0.0 else age
 
 
 def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,

@@ -321,3 +321,39 @@ def test_fused_observer_speed_bound_keeps_the_sample_current_hold_s_back_only(t0
         kept.append(len(est.bound_rows))
         assert est.bound_rows[0][0] >= t - 1.0 - 1e-6        # none older than hold_s
     assert kept[60:] == [51] * 90
+
+
+def test_loop_trusts_a_decision_exactly_max_decision_age_s_old_on_its_call_grid():
+    """select_target trusts a decision whose age equals max_decision_age_s (4 s), and one of
+    age 0. The loop took the age as obs.t_s - t_decided_s: on its 50 Hz call grid a decision
+    made 200 calls (4 s) earlier read 4.000000000000001 s old at 194 of 1800 calls and got
+    the fallback; one stamped at the call time by another rounding (1 ulp later) read a
+    negative age, the fallback too. Within the clock's rounding both are trusted; a
+    decision 1 us older than the limit is not."""
+    cfg = TractionControlConfig(wheel_radius_m=0.1)
+    table = _table(0.5)
+    for lag_calls, extra_s, trusted in ((200, 0.0, True), (0, 0.0, True), (200, 1e-6, False)):
+        def decision(t, n=lag_calls, x=extra_s):   # made n calls before t, x s earlier
+            return "ICE", 1.0, round(t / 0.02 - n) * 0.02 - x
+
+        loop = TractionLoop(cfg, 2, _Spinning(), table, decision, feed_forward=False)
+        for k in range(200, 600):
+            loop(observation(k * 0.02, np.full(2, 10.0)))
+        fallback = [r["fallback"] for r in loop.log]
+        assert fallback == [not trusted] * 400, (lag_calls, extra_s, sum(fallback))
+    loop = TractionLoop(cfg, 2, _Spinning(), table,
+                        lambda t: ("ICE", 1.0, float(np.nextafter(t, np.inf))),
+                        feed_forward=False)
+    for k in range(200, 300):
+        loop(observation(k * 0.02, np.full(2, 10.0)))
+    assert not any(r["fallback"] for r in loop.log)
+
+
+@pytest.mark.parametrize("stamp", [np.inf, -np.inf, np.nan])
+def test_loop_gives_the_fallback_for_a_decision_stamped_at_infinity(stamp):
+    """A decision time that is not finite has no age: the fallback (its rounding allowance
+    is not an infinite one)."""
+    loop = TractionLoop(TractionControlConfig(wheel_radius_m=0.1), 2, _Spinning(),
+                        _table(0.5), lambda t: ("ICE", 1.0, stamp), feed_forward=False)
+    loop(observation(1.0, np.full(2, 10.0)))
+    assert loop.log[0]["fallback"]
