@@ -105,6 +105,17 @@ UNCLASSIFIED_FLAGS: frozenset[str] = frozenset({"gap", "short", "accel_units",
                                                 "wheel_speed_units", "non_finite_proba"})
 
 
+def _same_time_s(t_s: float) -> float:
+    """How close a stamp is to ``t_s`` (s) when the two are one time, s: 1 ns (far below
+    any clock period), or 8 units of the float64 resolution at ``t_s`` when coarser (an
+    epoch clock, 1.7e9 s, resolves 2.4e-7 s: a grid point at a decision's time, rounded 1
+    ulp below it, was read as before it, and the window ``[t - window_s, t)`` read the
+    sample at ``t``, one grid point late; 1.2e-4 s at
+    :data:`~terrain.serving.rules.MAX_PLAUSIBLE_TIME_S`, below half the period of a 2 kHz
+    IMU)."""
+    return max(1e-9, 8.0 * math.ulp(t_s))
+
+
 class StreamService:
     """Streaming terrain classifier with bounded memory (see module docstring).
 
@@ -418,14 +429,16 @@ class StreamService:
             values.append(vs)
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):
         # the last n points of the streams' common grid before t (only those are built, so
-        # a window inside a long timestamp gap costs no more than any other)
-        tail, end = overlap_grid_tail(times, w.rate_hz, t - 1e-9, self._n)
+        # a window inside a long timestamp gap costs no more than any other); a grid point
+        # within the clock's rounding of t is at t (_same_time_s)
+        tol = _same_time_s(t)
+        tail, end = overlap_grid_tail(times, w.rate_hz, t - tol, self._n)
         if end == 0:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
         age = t - float(tail[-1]) - 1.0 / w.rate_hz
-        # the grid's rounding leaves ~1e-17 s on a fresh window: report it as 0 (1 ns is far
-        # below any clock period)
-        age = age if age > 1e-9 else 0.0
+        # the grid's rounding leaves ~1e-17 s on a fresh window (~1e-7 s on an epoch
+        # clock): report it as 0
+        age = age if age > tol else 0.0
         if end < self._n:
             return None, age, {"short"}
         # a gap counts where it holds a grid point of the window: a step that ends at or
