@@ -469,10 +469,16 @@ class StreamService:
         stale = any(t - b.last_t > self.config.stale_s for b in intake.buffers.values())
         if stale:
             flags.add("stale")
-        t_lo = t - self.model.window.window_s
+        # the window [t - window_s, t) with both edges moved by the clock's rounding, as
+        # its grid (_window): a rejection stamped at t (1.7 s, beside a decision time of
+        # 1.7000000000000002) is in the next window, not this one
+        tol = _same_time_s(t)
+        t_lo, t_hi = t - self.model.window.window_s - tol, t - tol
         for ev in intake.events.values():
-            flags.update(reason for first, last, reason in ev if first < t and last >= t_lo)
-        stuck = [key for watch in intake.stuck.values() for key in watch.stuck_between(t_lo, t)]
+            flags.update(reason for first, last, reason in ev
+                         if first < t_hi and last >= t_lo)
+        stuck = [key for watch in intake.stuck.values()
+                 for key in watch.stuck_between(t_lo, t_hi)]
         if stuck:   # one flag, as the readers write it
             flags.add(stuck_flag(stuck))
         q = None

@@ -3,6 +3,8 @@ clocks far from 0, counts at the limits of the buffers and thresholds."""
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -69,3 +71,32 @@ def test_a_window_ends_before_the_sample_at_its_decision_time_on_an_epoch_clock(
         assert read.tolist() == list(range(k - n_win, k)), (d.t_s - t0, read[[0, -1]])
         assert d.window_age_s == 0.0
         assert d.flags in ("", "low_confidence")
+
+
+@FAST
+@given(clock=st.sampled_from(_CLOCKS + [(20.0, 1.0, 0.05)]), data=st.data(),
+       t0=st.sampled_from([0.0, 100.0, 1.7e9, 2.0 ** 31]))
+def test_a_refused_sample_flags_exactly_the_windows_that_hold_its_time(clock, data, t0):
+    """A sample refused (non-finite) at ``s`` flags the decisions at ``t`` whose window
+    ``[t - window_s, t)`` holds ``s`` (``StreamIntake.events``): the window starting at it,
+    not the one ending at it. Compared as floats, the decision at 1.7 s (1.0 + 7 x 0.1 =
+    1.7000000000000002) was flagged for the sample at 1.7 s, which its aligned window does
+    not read, and the one at 2.7 s (window from 1.7000000000000002) was not, which reads
+    it (interpolated across), on a clock from 0; on an epoch clock the other way round."""
+    rate, window_s, hop = clock
+    svc, rec = _recording_service(rate, window_s, hop)
+    n = int(round(5.0 * rate))
+    bad = data.draw(st.integers(int(round(window_s * rate)), n - 1), label="bad")
+    t = t0 + np.arange(n) / rate
+    out = []
+    for i in range(n):
+        v = np.array([[np.nan if i == bad else 0.01, 0.02]])
+        out += svc.push("wheels", t[i:i + 1], v)
+    assert svc.refused_samples == {("wheels", "non_finite"): 1}
+    k_bad = Fraction(bad) / Fraction(rate)          # the refused stamp - t0, exactly
+    w, h = Fraction(window_s), Fraction(hop).limit_denominator(1000)
+    for j, d in enumerate(out):                      # the first decision at window_s
+        end = w + j * h
+        assert abs(float(end) - (d.t_s - t0)) < 1e-5
+        holds = end - w <= k_bad < end
+        assert ("non_finite" in d.flags.split("|")) == holds, (float(end), float(k_bad))
