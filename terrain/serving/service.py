@@ -466,13 +466,15 @@ class StreamService:
     def _decide(self, t: float) -> Decision:
         X, age, flags = self._window(t)
         intake = self._intake
-        stale = any(t - b.last_t > self.config.stale_s for b in intake.buffers.values())
-        if stale:
-            flags.add("stale")
         # the window [t - window_s, t) with both edges moved by the clock's rounding, as
         # its grid (_window): a rejection stamped at t (1.7 s, beside a decision time of
-        # 1.7000000000000002) is in the next window, not this one
+        # 1.7000000000000002) is in the next window, not this one; a stream exactly
+        # stale_s old is not stale (1.8 - 1.5 s is 0.30000000000000004)
         tol = _same_time_s(t)
+        stale = any(t - b.last_t > self.config.stale_s + tol
+                    for b in intake.buffers.values())
+        if stale:
+            flags.add("stale")
         t_lo, t_hi = t - self.model.window.window_s - tol, t - tol
         for ev in intake.events.values():
             flags.update(reason for first, last, reason in ev

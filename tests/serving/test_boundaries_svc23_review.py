@@ -100,3 +100,41 @@ def test_a_refused_sample_flags_exactly_the_windows_that_hold_its_time(clock, da
         assert abs(float(end) - (d.t_s - t0)) < 1e-5
         holds = end - w <= k_bad < end
         assert ("non_finite" in d.flags.split("|")) == holds, (float(end), float(k_bad))
+
+
+TWO = {"left": ("vel_l",), "right": ("vel_r",)}
+
+
+@FAST
+@given(clock=st.sampled_from([(10.0, 1.0, 0.1, 0.3), (20.0, 1.0, 0.05, 0.3),
+                              (10.0, 2.0, 0.3, 0.7), (100.0, 1.0, 0.3, 0.9),
+                              (10.0, 1.0, 0.1, 1.0)]),
+       data=st.data(), t0=st.sampled_from([0.0, 100.0, 1.7e9]))
+def test_a_stream_silent_for_exactly_stale_s_is_not_stale(clock, data, t0):
+    """``stale``: a stream whose newest sample is older than the decision time by *more
+    than* ``stale_s`` (``StreamConfig``); one exactly ``stale_s`` old is not, whatever the
+    rounding of the two times (20 Hz, hop 0.05 s, stale_s 0.3 s: the right wheel's last
+    sample at 1.5 s made the decision at 1.8 s stale, 1.8 - 1.5 = 0.30000000000000004;
+    stale decisions get the fallback targets)."""
+    rate, window_s, hop, stale_s = clock
+    rec = _Recorder()
+    model = StreamModel(rec, ("vel_l", "vel_r"),
+                        WindowConfig(window_s=window_s, rate_hz=rate), CLASSES)
+    svc = StreamService(model, TableTargets(CLASSES),
+                        StreamConfig(hop_s=hop, streams=TWO, stale_s=stale_s))
+    n = int(round(4.0 * rate))
+    stop = data.draw(st.integers(int(round(window_s * rate)), n - 1), label="stop")
+    t = t0 + np.arange(n) / rate
+    out = []
+    for i in range(n):
+        out += svc.push("left", t[i:i + 1], {"vel_l": [0.1]})
+        if i <= stop:
+            out += svc.push("right", t[i:i + 1], {"vel_r": [0.1]})
+    last = Fraction(stop) / Fraction(rate)
+    w, h = Fraction(window_s), Fraction(hop).limit_denominator(1000)
+    stale = Fraction(stale_s).limit_denominator(1000)
+    assert out
+    for j, d in enumerate(out):
+        end = w + j * h
+        assert abs(float(end) - (d.t_s - t0)) < 1e-5
+        assert ("stale" in d.flags.split("|")) == (end - last > stale), float(end)
