@@ -388,7 +388,9 @@ class StreamService:
                      for b in self._intake.buffers.values())
         if resume <= t:
             return 0
-        until = min(resume, newest - self.config.max_backlog_s)
+        # the hops before it; a hop at it (within the clock's rounding: 8.6 s beside a
+        # newest sample at 12.8 s and max_backlog_s 4.2 s) is decided
+        until = min(resume, newest - self.config.max_backlog_s) - _same_time_s(newest)
         return max(0, int(np.ceil((until - t) / self.config.hop_s)))
 
     def _holds_gap(self, ts: np.ndarray, step: float, first: float) -> bool:

@@ -138,3 +138,38 @@ def test_a_stream_silent_for_exactly_stale_s_is_not_stale(clock, data, t0):
         end = w + j * h
         assert abs(float(end) - (d.t_s - t0)) < 1e-5
         assert ("stale" in d.flags.split("|")) == (end - last > stale), float(end)
+
+
+@FAST
+@given(clock=st.sampled_from([(10.0, 1.0, 0.2, 4.2), (10.0, 1.0, 0.1, 3.0),
+                              (10.0, 1.0, 0.3, 6.0), (8.0, 1.0, 0.5, 5.0)]),
+       pause=st.integers(60, 130), t0=st.sampled_from([0.0, 100.0, 1.7e9]))
+def test_a_silent_hop_exactly_max_backlog_s_before_the_newest_sample_is_decided(
+        clock, pause, t0):
+    """Decisions due *more than* ``max_backlog_s`` before the newest sample whose window
+    holds no sample are skipped (module docstring); one exactly ``max_backlog_s`` before it
+    is decided, whatever the rounding (10 Hz, hop 0.2 s, max_backlog_s 4.2 s, newest
+    sample at 14.8 s: the decision at 10.6 s was skipped on a clock from 0, decided on one
+    from 100 s)."""
+    rate, window_s, hop, backlog = clock
+    svc, rec = _recording_service(rate, window_s, hop, max_backlog_s=backlog,
+                                  clock_restart_s=1000.0)
+    n = int(3 * rate)
+    idx = list(range(n)) + list(range(n + pause, n + pause + 12))
+    out, newest = [], []
+    for i in idx:
+        got = svc.push("wheels", [t0 + i / rate], np.array([[0.1, 0.2]]))
+        out += got
+        newest += [Fraction(i) / Fraction(rate)] * len(got)
+    r, w, h = Fraction(rate), Fraction(window_s), Fraction(hop).limit_denominator(1000)
+    last_before, first_after = Fraction(n - 1) / r, Fraction(n + pause) / r
+    decided = {int(round((d.t_s - t0 - window_s) / hop)): N for d, N in zip(out, newest)}
+    for k in range(max(decided) + 1):
+        t = w + k * h
+        silent = t - w - 2 / r > last_before and t < first_after
+        if k in decided:
+            assert not (silent and decided[k] - t > Fraction(backlog)), float(t)
+        else:   # skipped: silent, more than max_backlog_s before the newest sample
+            N = min(v for j, v in decided.items() if j > k)
+            assert silent and N - t > Fraction(backlog), (float(t), float(N))
+    assert svc.skipped_decisions == max(decided) + 1 - len(decided)
