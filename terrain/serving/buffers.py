@@ -237,8 +237,9 @@ class RingBuffer:
                    few: int = FEW_STEPS, prior_s: float | None = None) -> float:
         """Usual time step of the stream, the one a gap is judged against, s.
 
-        The median of the newest ``last`` steps (:meth:`median_step`, the readers' rule), but
-        the smallest of them while fewer than ``few`` steps are known: two holes in a
+        The median of the steps between the newest ``last`` samples (``last - 1`` steps;
+        :meth:`median_step`, the readers' rule), but the smallest of them while fewer than
+        ``few`` steps are known: two holes in a
         stream's first four steps (samples at 0, 0.615, 1.69, 1.846 and 2 s of a 6.5 Hz
         stream) made the median 0.385 s, and neither hole, of 4 and 7 usual steps, was a
         gap. The smallest step errs the other way (a jittered short step makes a longer one

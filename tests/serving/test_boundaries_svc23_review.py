@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 
 from features.windows import WindowConfig
 from terrain.serving import StreamConfig, StreamModel, StreamService, TableTargets
+from terrain.serving.buffers import RingBuffer
 
 CLASSES = ("ASPHALT", "SNOW", "ICE")
 ONE = {"wheels": ("vel_l", "vel_r")}
@@ -173,3 +174,15 @@ def test_a_silent_hop_exactly_max_backlog_s_before_the_newest_sample_is_decided(
             N = min(v for j, v in decided.items() if j > k)
             assert silent and N - t > Fraction(backlog), (float(t), float(N))
     assert svc.skipped_decisions == max(decided) + 1 - len(decided)
+
+
+def test_a_buffers_usual_step_reads_the_steps_between_its_newest_last_samples():
+    """``last`` counts samples, not steps (``RingBuffer.median_step``, ``usual_step``): the
+    newest 4 samples of 0, 1, 3, 6, 10 s hold the steps 2, 3, 4 s (median 3 s, smallest
+    2 s), not the newest 4 steps 1 to 4 s (median 2.5 s); ``few`` counts those steps."""
+    buf = RingBuffer(1, 16)
+    buf.append(np.array([0.0, 1.0, 3.0, 6.0, 10.0]), np.zeros((5, 1)))
+    assert buf.median_step(last=4) == 3.0
+    assert buf.usual_step(last=4, few=3) == 3.0     # 3 steps known: not fewer than 3
+    assert buf.usual_step(last=4, few=4) == 2.0     # fewer than 4: the smallest
+    assert np.isnan(buf.usual_step(last=1))         # one sample: no step
