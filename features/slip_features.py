@@ -318,7 +318,7 @@ def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndar
                   ) -> np.ndarray:
     # the mean of the samples in [t0, t1) of each column; NaN where the window holds none,
     # or holds a NaN or inf (counted apart: in the running sum one made every later window
-    # NaN). A sample on an edge (within 1e-9 s, the project's placement rule step_index)
+    # NaN). A sample on an edge (within the clock's rounding, the placement rule step_index)
     # is the window's it starts: by raw float comparison the 100 Hz truth sample k * 0.01
     # on a 1.7 s window's end fell inside it in 6 % of the windows
     a = step_index(t, t0)
@@ -352,7 +352,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
     pandas.DataFrame, shape (n_windows, 6)
         ``slip_1, slip_2, chi, v_by`` (lateral body velocity, m/s), ``yaw_rate`` (rad/s),
         ``terrain``; each a mean of the truth samples in ``[t_start_s, t_end_s)`` (a sample
-        within 1e-9 s of an edge on it, :func:`terrain.run.step_index`); a mean is NaN
+        within rounding of an edge on it, :func:`terrain.run.step_index`); a mean is NaN
         where its window holds no truth sample or a NaN or inf one (that window only), and
         ``chi`` where the window's mean ``|yaw_rate|`` is below :data:`MIN_TURN_RATE_RAD_S`
         (a turn at exactly that rate has one).

@@ -23,6 +23,21 @@ def test_a_sample_belongs_to_the_first_step_at_or_after_it():
     assert step_index(grid, [1e-9])[0] == 0
 
 
+def test_a_sample_on_a_step_of_an_epoch_clock_belongs_to_that_step():
+    # one rounding of a time near 1.7e9 s is 2.4e-7 s, far more than 1 ns: a sample stamped
+    # on a 100 Hz step by another arithmetic (t0 + k / rate against the grid's t0 + k * step)
+    # or one unit in the last place late went to the next step under a fixed 1 ns tolerance
+    t0 = 1.7e9
+    k = np.arange(2000)
+    grid = t0 + k * 0.01
+    on_step = t0 + k / 100.0
+    late = np.nextafter(grid, np.inf)
+    assert step_index(grid, late).tolist() == k.tolist()
+    assert step_index(grid, on_step).tolist() == k.tolist()
+    # a sample half a step late still belongs to the next step
+    assert step_index(grid, grid[:-1] + 0.005).tolist() == (k[:-1] + 1).tolist()
+
+
 def test_the_filters_and_the_simulator_share_the_rule():
     rng = np.random.default_rng(0)
     grid = np.cumsum(rng.uniform(0.005, 0.02, 200))

@@ -259,14 +259,15 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
     rate drifts against the samples by up to that much per step: on a clock far from 0 (a
     robot's seconds since boot, an epoch clock) it ended a hair before the last sample, or
     one whole step short, and the stream's last sample was outside the grid (and, drifting
-    past the 1e-9 s of the placement rule of :func:`sample_steps`, samples inside it went
+    past the slack of the placement rule of :func:`sample_steps`, samples inside it went
     to the next step, superseded there). A ``t_end`` within that rounding slack (twice the
     steps times the clock's unit in the last place, at most a quarter step) of a grid step
     is the last step: the count takes it and the steps are spread evenly over ``[t_start,
     t_end]`` (the rate corrected by the clock's rounding). A grid whose last step is already
-    within 1e-9 s of ``t_end`` is left as computed. A clock whose unit in the last place
-    exceeds 1e-9 s (beyond about 8e6 s, an epoch clock) rounds its samples off the grid's
-    steps by more than the placement rule's 1e-9 s, which no grid can meet.
+    within 1e-9 s of ``t_end`` is left as computed. On a clock whose unit in the last place
+    exceeds 1e-9 s (beyond about 8e6 s, an epoch clock) the samples lie off the grid's steps
+    by their own rounding; the placement rule's slack (:func:`terrain.run.clock_slack`, 64
+    units in the last place there) still puts each on its step.
 
     Parameters
     ----------
@@ -323,8 +324,9 @@ def make_grid(t_start_s: float, t_end_s: float, rate_hz: float) -> np.ndarray:
 def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     """Grid step that receives each sample: the first step at or after its time.
 
-    The placement rule of :func:`run_filter` (:func:`terrain.run.step_index`: to 1e-9 s, so
-    a sample on a step belongs to that step; the simulator reads its steps by the same rule),
+    The placement rule of :func:`run_filter` (:func:`terrain.run.step_index`: within
+    :func:`terrain.run.clock_slack`, 1 ns on a clock below 2**17 s, so a sample on a step
+    belongs to that step; the simulator reads its steps by the same rule),
     shared by the code that must agree with it step for step (the segments and
     the speed bound of :mod:`terrain.estimation.skid_steer_slip`).
 
@@ -346,9 +348,9 @@ def sample_steps(t_grid: np.ndarray, t_s: np.ndarray) -> np.ndarray:
 def samples_inside(t_grid: np.ndarray, t_s: np.ndarray, first_step_s: float | None = None
                    ) -> np.ndarray:
     """Which samples :func:`run_filter` may use: those after the step before the first
-    (``t_0 - dt``, taken at the first step) and at or before the last step, both to 1e-9 s
-    by the placement rule of :func:`sample_steps` (a sample at ``t_0 - dt`` belongs to that
-    step, which is not the grid's); the others are counted as ``outside``.
+    (``t_0 - dt``, taken at the first step) and at or before the last step, both within the
+    slack of the placement rule of :func:`sample_steps` (a sample at ``t_0 - dt`` belongs to
+    that step, which is not the grid's); the others are counted as ``outside``.
 
     Parameters
     ----------

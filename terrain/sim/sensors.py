@@ -135,7 +135,8 @@ def physics_step_index(t_phys_s: np.ndarray, t_s: np.ndarray) -> np.ndarray:
     """Physics step each sample time reads: the first step at or after it.
 
     A sample at ``t`` takes the state of the first physics step whose time is ``>= t``,
-    within 1e-9 s (so a sample on the grid reads that step despite rounding); samples past
+    within :func:`terrain.run.clock_slack` (1 ns on the simulator's clocks, which start at
+    0 s; so a sample on the grid reads that step despite rounding); samples past
     the last step read the last one (:func:`terrain.run.step_index`, clipped, the rule the
     filters place their measurements by). The ground truth, the terrain labels and the
     closed-loop logs place their samples by it (the open-loop simulator's sensor streams
