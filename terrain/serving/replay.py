@@ -10,6 +10,7 @@ does so for ``terrain stream`` and keeps what a user is told of the replay
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass
 from pathlib import Path
@@ -138,6 +139,10 @@ class RunReplay:
         (:attr:`StreamService.refused_samples`, :attr:`StreamService.held_samples`).
     skipped : int
         Decisions skipped in silent stretches.
+    first_decision_s, last_common_s : float
+        When the service's first decision is due (the latest first sample of the needed
+        streams plus ``window_s``, as its clock computes it) and the earliest last sample of
+        those streams, s (NaN where a needed stream is empty).
     """
 
     run: Run
@@ -151,12 +156,17 @@ class RunReplay:
     refused: dict
     held: dict
     skipped: int
+    first_decision_s: float
+    last_common_s: float
 
     @property
     def too_short(self) -> bool:
         """Whether the needed streams share less than one window (the run is refused even
-        where the service emitted flagged decisions from the longer stream alone)."""
-        return self.overlap_s < self.window_s
+        where the service emitted flagged decisions from the longer stream alone): the
+        first decision is due after the earliest last sample, the service's own rule
+        (``overlap_s < window_s`` refused runs the service decides on, where the span's
+        subtraction rounds below the window: 2.3 - 0.3 s is 1.9999999999999998 s)."""
+        return not self.first_decision_s <= self.last_common_s
 
     def input_report(self) -> InputReport:
         """The readers' report of the run (what they repaired and found), with its window
@@ -275,17 +285,24 @@ def replay_recorded(service: StreamService, run: Run) -> RunReplay:
     window_s = model.window.window_s
     frame["flags"], n_stuck = with_run_stuck_flags(frame, dict(run.meta.get("stuck", {})),
                                                    window_s)
-    return RunReplay(run, frame, n_stuck,
-                     _overlap_s([run.streams[s] for s in streams]), window_s,
+    needed = [run.streams[s] for s in streams]
+    start_s, end_s = _common_span_s(needed)
+    return RunReplay(run, frame, n_stuck, _overlap_s(needed), window_s,
                      service.config.hop_s, service.config.max_backlog_s, streams,
                      service.refused_samples, service.held_samples,
-                     service.skipped_decisions)
+                     service.skipped_decisions, start_s + window_s, end_s)
+
+
+def _common_span_s(streams: list[pd.DataFrame]) -> tuple[float, float]:
+    """Latest first sample and earliest last sample of ``streams``, s (NaN, NaN where one
+    is empty)."""
+    if not all(len(f) for f in streams):
+        return math.nan, math.nan
+    return (max(float(f[TIME].iloc[0]) for f in streams),
+            min(float(f[TIME].iloc[-1]) for f in streams))
 
 
 def _overlap_s(streams: list[pd.DataFrame]) -> float:
     """Time span covered by every one of ``streams``, s (0 when they do not overlap)."""
-    if not all(len(f) for f in streams):
-        return 0.0
-    starts = [float(f[TIME].iloc[0]) for f in streams]
-    ends = [float(f[TIME].iloc[-1]) for f in streams]
-    return max(0.0, min(ends) - max(starts))
+    start_s, end_s = _common_span_s(streams)
+    return end_s - start_s if end_s >= start_s else 0.0     # NaN: an empty stream

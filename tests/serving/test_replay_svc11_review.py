@@ -15,7 +15,8 @@ def _replay(refused: dict) -> RunReplay:
               {"wheels": pd.DataFrame({"t_s": [0.0, 1.0], "vel_l": [0.1, 0.1]})})
     d = Decision(2.0, "ASPHALT", 0.9, np.array([0.9, 0.1]), 0.1, -0.1, 0.05, 0.0, "")
     frame = decisions_frame([d], ("ASPHALT", "GRASS"))
-    return RunReplay(run, frame, 0, 10.0, 2.0, 0.5, 60.0, ("wheels",), refused, {}, 0)
+    return RunReplay(run, frame, 0, 10.0, 2.0, 0.5, 60.0, ("wheels",), refused, {}, 0, 2.0,
+                     10.0)
 
 
 def test_summary_counts_the_samples_the_service_refused():

@@ -86,7 +86,33 @@ def test_streams_overlapping_exactly_one_window_are_not_too_short():
     run = _run({"a": np.arange(0.0, 2.001, 0.01)})
     frame = pd.DataFrame({"flags": []})
 
-    def replay(overlap_s):
-        return RunReplay(run, frame, 0, overlap_s, 2.0, 0.5, 3.0, ("a",), {}, {}, 0)
+    def replay(end_s):
+        return RunReplay(run, frame, 0, end_s, 2.0, 0.5, 3.0, ("a",), {}, {}, 0, 2.0, end_s)
 
     assert not replay(2.0).too_short and replay(np.nextafter(2.0, 0)).too_short
+
+
+def test_a_run_the_service_decides_on_is_not_too_short_where_its_span_rounds_below_a_window(
+        wheel_model):
+    # srv21's left-alone: 41 wheel samples 0.05 s apart from 0.3 s span 2.3 - 0.3 =
+    # 1.9999999999999998 s; the service decides once (t 0.3 + 2.0 <= 2.3), the replay
+    # refused the run as overlapping for less than one window; from 0 s it took it
+    from terrain.serving import CataloguePeakTargets, StreamConfig, StreamService
+    from terrain.serving.replay import replay_recorded
+
+    def wheel_service():
+        return StreamService(wheel_model, CataloguePeakTargets(wheel_model.classes),
+                             StreamConfig(hop_s=0.5))
+
+    for t0 in (0.0, 0.3):
+        t = t0 + np.arange(41) * 0.05
+        wheels = pd.DataFrame({TIME: t, "vel_l": 0.3, "vel_r": 0.3, "cur_l": 2.0,
+                               "cur_r": 2.0})
+        run = Run("probe/SNOW/0", "probe", "SNOW", {"wheels": wheels})
+        replay = replay_recorded(wheel_service(), run)
+        assert len(replay.frame) == 1 and not replay.too_short, t0
+        replay.check("probe")
+        # one sample fewer: no decision, and refused as too short
+        shorter = Run("probe/SNOW/0", "probe", "SNOW", {"wheels": wheels.iloc[:-1]})
+        short = replay_recorded(wheel_service(), shorter)
+        assert len(short.frame) == 0 and short.too_short
