@@ -43,7 +43,8 @@ class LagSettings:
     max_lag_s : float
         Search range ``[-max_lag_s, max_lag_s]``, s.
     lag_step_s : float
-        Grid step, s.
+        Grid step, s: the candidate lags are whole steps within the range, symmetric about
+        0 (:func:`lag_grid`).
     window_s, step_s : float
         Window length and hop, s. Runs shorter than ``window_s`` form one window.
     min_excitation_rad_s : float
@@ -174,6 +175,31 @@ class LagTrack:
                 "identifiable": True}
 
 
+def lag_grid(settings: LagSettings) -> np.ndarray:
+    """Candidate lags of :func:`best_lag`: whole grid steps within the search range.
+
+    Parameters
+    ----------
+    settings : LagSettings
+        ``max_lag_s`` and ``lag_step_s``.
+
+    Returns
+    -------
+    ndarray, shape (2 n + 1,)
+        ``k * lag_step_s`` for ``k = -n..n``, ``n = floor(max_lag_s / lag_step_s)``, s:
+        symmetric about 0, with 0 on it. A step that divides ``max_lag_s`` reaches both ends
+        of the range; one that does not stops at the last whole step inside it (the grid
+        was built from ``-max_lag_s`` upward, so max 1.0 s in steps of 0.3 s searched
+        -1.0 .. 0.8 s without 0, and a wheel stream 0.1 s early and 0.1 s late came out
+        -0.0996 and +0.143 s; steps of 0.4 s searched -1.0, -0.6, -0.2, 0.2, ...).
+    """
+    n = int(np.floor(settings.max_lag_s / settings.lag_step_s + 1e-9))
+    if abs(n * settings.lag_step_s - settings.max_lag_s) <= 1e-9:
+        # the step divides the range: the grid as built before, from -max_lag_s upward
+        return np.arange(-settings.max_lag_s, settings.max_lag_s + 1e-9, settings.lag_step_s)
+    return np.arange(-n, n + 1) * settings.lag_step_s
+
+
 def _check_series(owner: str, t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray,
                   wz: np.ndarray, empty_stretch: bool = False) -> None:
     """Refuse an empty record or a series whose length is not its clock's (numpy's bare
@@ -221,7 +247,7 @@ def best_lag(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: np.ndarray
         ``t_s`` (a window inside a gap) is a stretch that is not usable.
     """
     _check_series("best_lag", t_s, x, t_imu_s, wz, empty_stretch=True)
-    lags = np.arange(-settings.max_lag_s, settings.max_lag_s + 1e-9, settings.lag_step_s)
+    lags = lag_grid(settings)
     # samples whose IMU time stays inside the IMU record for every candidate lag
     ok = (t_s - settings.max_lag_s >= t_imu_s[0]) & (t_s + settings.max_lag_s <= t_imu_s[-1])
     if ok.sum() < 8 or np.std(x[ok]) < settings.min_excitation_rad_s:

@@ -1,0 +1,54 @@
+"""Boundaries of the lag search (terrain.audit.timing), review aud23: the lag grid's ends and
+zero, windows' edges and the last sample of a run."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from terrain.audit.timing import LagSettings, best_lag, lag_grid
+
+DT_S = 0.02
+
+
+def _commanded(seed: int = 0, duration_s: float = 40.0):
+    """A smooth random commanded yaw rate on a 50 Hz clock: (t_s, x)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, DT_S)
+    x = 3.0 * np.convolve(rng.normal(size=t.size), np.ones(25) / 25, "same")
+    return t, x
+
+
+@pytest.mark.parametrize("max_lag_s, lag_step_s", [(1.0, 0.3), (1.0, 0.4), (0.5, 0.15)])
+@pytest.mark.parametrize("k", [-2, -1, 0, 1, 2])
+def test_a_lag_on_a_whole_number_of_steps_is_found_when_the_step_does_not_divide_the_range(
+        max_lag_s, lag_step_s, k):
+    """The grid is symmetric about 0 and holds every whole step inside [-max_lag_s,
+    max_lag_s]: it was built from -max_lag_s upward, so with a step that does not divide the
+    range 0 was not on it (max 1.0, step 0.3: ..., -0.1, 0.2, ...; an unlagged gyro came out
+    -0.042 s) and a wheel stream 0.1 s early (-0.1 on the grid) and 0.1 s late (off it) were
+    found as -0.0996 and +0.143 s."""
+    t, x = _commanded()
+    lag = k * lag_step_s
+    wz = np.interp(t + lag, t, x)                 # x(t) = wz(t - lag): wheel data late by lag
+    found, r2, slope = best_lag(t, x, t, wz,
+                                LagSettings(max_lag_s=max_lag_s, lag_step_s=lag_step_s,
+                                            window_s=60.0, step_s=30.0))
+    assert found == pytest.approx(lag, abs=0.02 * lag_step_s)
+    assert r2 > 0.99 and slope > 0
+
+
+@pytest.mark.parametrize("max_lag_s, lag_step_s", [(2.0, 0.02), (1.0, 0.3), (1.0, 0.4),
+                                                   (0.3, 0.1), (0.5, 0.15), (2.0, 1.5)])
+def test_lag_grid_is_symmetric_about_zero_and_inside_the_range(max_lag_s, lag_step_s):
+    """Whole steps -n..n (0 on the grid, both ends inside [-max_lag_s, max_lag_s], the last
+    step within one step of max_lag_s); a step that divides the range keeps the grid built
+    before, bit for bit (the documented audit reports use 2.0 s in 0.02 s steps)."""
+    grid = lag_grid(LagSettings(max_lag_s=max_lag_s, lag_step_s=lag_step_s))
+    n = len(grid) // 2
+    assert len(grid) == 2 * n + 1 and abs(grid[n]) < 1e-12
+    np.testing.assert_allclose(grid, -grid[::-1], atol=1e-12)
+    np.testing.assert_allclose(np.diff(grid), lag_step_s, rtol=1e-9)
+    assert grid[-1] <= max_lag_s + 1e-9 and grid[-1] > max_lag_s - lag_step_s
+    if max_lag_s == 2.0 and lag_step_s == 0.02:
+        assert np.array_equal(grid, np.arange(-2.0, 2.0 + 1e-9, 0.02))
