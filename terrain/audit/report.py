@@ -207,9 +207,11 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
     str
         ``~<mu>``; ``between <mu_k> and <mu_k+1>`` when the replay's chi goes from below
         the measured chi to inf between them; ``below <lowest>`` / ``above <highest>``
-        when the sweep does not bracket the measured chi; ``-`` without a measured chi or
-        without a replayed chi (no run of the terrain turns inside the scored span), or for
-        an empty sweep. Frictions without a replayed chi are left out of the bracketing.
+        when the sweep does not bracket the measured chi (its ends bracket it: a friction
+        whose replayed chi equals the measured one is ``~<that mu>``); ``-`` without a
+        measured chi or without a replayed chi (no run of the terrain turns inside the
+        scored span), or for an empty sweep. Frictions without a replayed chi are left out
+        of the bracketing.
     """
     g = sweep.sort_values("lateral_friction")
     if g.empty:
@@ -220,6 +222,9 @@ def matching_lateral_friction(sweep: pd.DataFrame) -> str:
         return "-"
     # a NaN chi brackets nothing and failed every comparison, down to the "above" fall-through
     mu, chi = mu[~np.isnan(chi)], chi[~np.isnan(chi)]
+    hit = np.flatnonzero(chi == float(target))
+    if hit.size:        # a friction met exactly (the sweep's only point, or the last before
+        return f"~{mu[hit[0]]:.2f}"      # digging in, was 'above' / 'between')
     for k in range(len(mu) - 1):
         if chi[k] <= target <= chi[k + 1] and np.isfinite(chi[k + 1]):
             frac = (target - chi[k]) / max(chi[k + 1] - chi[k], 1e-12)
