@@ -28,7 +28,8 @@ from terrain.audit.physics import (PhysicsComparisonSettings, comparison_markdow
 from terrain.audit.replay import (JITTER_ACCEL_M_S2, MAX_CUTOFF_FRACTION, ReplaySettings,
                                   cruise_wheel_acceleration_rms, lowpass_cutoff_hz)
 from terrain.audit.core import prepare_frames
-from terrain.audit.selection import MAX_BOOTSTRAP, MAX_PARAM_BOOTSTRAP, MIN_BOOTSTRAP
+from terrain.audit.selection import (MAX_BOOTSTRAP, MAX_PARAM_BOOTSTRAP, MIN_BOOTSTRAP,
+                                     MIN_PARAM_BOOTSTRAP)
 from terrain.audit.report import figures_folder, flat_metrics, summary_lines, write_markdown
 from terrain.io.jsonfile import json_ready
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
@@ -54,6 +55,19 @@ def _min_gain(value: str) -> float:
     return parse_number(value, lambda x: 0 <= x < 1, "a fraction of the baseline RMSE in [0, 1)")
 
 
+def _param_bootstrap(value: str) -> int:
+    """argparse ``type`` of ``--param-bootstrap``: 0 or an integer in
+    ``MIN_PARAM_BOOTSTRAP..MAX_PARAM_BOOTSTRAP``, as
+    :class:`terrain.audit.selection.SelectionSettings` takes it, named as the option (1-4
+    resamples never give an interval)."""
+    number = integer_in(0, MAX_PARAM_BOOTSTRAP)(value)
+    if 0 < number < MIN_PARAM_BOOTSTRAP:
+        raise argparse.ArgumentTypeError(
+            f"must be 0 (no parameter intervals) or at least {MIN_PARAM_BOOTSTRAP} (an "
+            f"interval needs {MIN_PARAM_BOOTSTRAP} refits), got {value}")
+    return number
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Add the arguments of ``terrain audit`` to ``parser``.
 
@@ -75,10 +89,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         default=DEFAULTS["bootstrap"],
                         help="resamples of held-out runs for the gain interval "
                              f"({MIN_BOOTSTRAP}-{MAX_BOOTSTRAP:,})")
-    parser.add_argument("--param-bootstrap", type=integer_in(0, MAX_PARAM_BOOTSTRAP),
+    parser.add_argument("--param-bootstrap", type=_param_bootstrap,
                         default=DEFAULTS["param_bootstrap"],
-                        help="resamples of runs for the parameter intervals "
-                             f"(0-{MAX_PARAM_BOOTSTRAP:,})")
+                        help="resamples of runs for the parameter intervals (0: none, or "
+                             f"{MIN_PARAM_BOOTSTRAP}-{MAX_PARAM_BOOTSTRAP:,})")
     parser.add_argument("--min-gain", type=_min_gain, default=DEFAULTS["min_gain"],
                         help="smallest held-out gain (fraction of baseline RMSE, in [0, 1)) "
                              "to support")

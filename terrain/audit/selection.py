@@ -66,6 +66,9 @@ MAX_BOOTSTRAP = 100_000
 MIN_BOOTSTRAP = 10
 #: Most parameter-interval resamples: each one refits every effect.
 MAX_PARAM_BOOTSTRAP = 10_000
+#: Fewest successful refits a parameter interval is given from (and a quarter of the
+#: resamples asked for, when more): fewer resamples than this (but some) never give one.
+MIN_PARAM_BOOTSTRAP = 5
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,8 @@ class SelectionSettings:
     n_bootstrap : int
         Resamples of held-out units for the gain interval.
     n_param_bootstrap : int
-        Resamples of units for the parameter intervals (refits).
+        Resamples of units for the parameter intervals (refits): 0 (no intervals) or at
+        least :data:`MIN_PARAM_BOOTSTRAP`.
     min_gain : float
         Smallest gain (fraction of baseline RMSE) an effect must bring to be supported.
     min_units : int
@@ -89,7 +93,9 @@ class SelectionSettings:
     ------
     ConfigError
         ``n_bootstrap`` not an integer in ``MIN_BOOTSTRAP..MAX_BOOTSTRAP``,
-        ``n_param_bootstrap`` not one in ``0..MAX_PARAM_BOOTSTRAP``, ``min_units`` not one
+        ``n_param_bootstrap`` not one in ``0..MAX_PARAM_BOOTSTRAP`` or one below
+        :data:`MIN_PARAM_BOOTSTRAP` but 0 (1-4 resamples never gave an interval),
+        ``min_units`` not one
         >= 2, ``seed`` not one >= 0 (:func:`~terrain.errors.config_integer`: a boolean or a
         float such as 10.5 or NaN is no count), or ``min_gain`` not a number in [0, 1).
     """
@@ -107,6 +113,11 @@ class SelectionSettings:
                        MAX_BOOTSTRAP)
         config_integer("SelectionSettings.n_param_bootstrap", self.n_param_bootstrap, 0,
                        MAX_PARAM_BOOTSTRAP)
+        if 0 < self.n_param_bootstrap < MIN_PARAM_BOOTSTRAP:
+            raise ConfigError(
+                f"SelectionSettings.n_param_bootstrap must be 0 (no parameter intervals) or "
+                f"at least {MIN_PARAM_BOOTSTRAP} (an interval needs {MIN_PARAM_BOOTSTRAP} "
+                f"refits), got {self.n_param_bootstrap!r}")
         config_integer("SelectionSettings.min_units", self.min_units, 2)
         config_integer("SelectionSettings.seed", self.seed, 0)
         if not (isinstance(self.min_gain, numbers.Real) and not isinstance(self.min_gain, bool)
@@ -603,8 +614,8 @@ def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: st
               n_boot: int) -> dict[str, tuple[float, float]]:
     """Bootstrap interval of the parameter of ``name`` refitted on units resampled within
     each terrain (:func:`stratified_resamples`). A refit that fails (not identifiable) or
-    gives a parameter that is not finite is no draw; fewer than ``max(5, n_boot // 4)``
-    draws give no interval (empty)."""
+    gives a parameter that is not finite is no draw; fewer than
+    ``max(MIN_PARAM_BOOTSTRAP, n_boot // 4)`` draws give no interval (empty)."""
     if n_boot <= 0:
         return {}
     fit = GROUP_MODELS[group].fit
@@ -620,7 +631,7 @@ def _param_ci(units: Units, group: str, spec: Sequence[str], name: str, form: st
         values = effect_params(name, p)
         if np.all(np.isfinite(list(values.values()))):
             draws.append(values)
-    if len(draws) < max(5, n_boot // 4):
+    if len(draws) < max(MIN_PARAM_BOOTSTRAP, n_boot // 4):
         return {}
     return {k: (float(np.percentile([d[k] for d in draws], 2.5)),
                 float(np.percentile([d[k] for d in draws], 97.5))) for k in draws[0]}
