@@ -18,11 +18,13 @@ Optionally a second reference, the replayed yaw rate, competes with ``x`` in eve
 time, which matters where the simulated robot follows turn commands slowly.
 
 The lag may drift within a run, so it is estimated in overlapping windows (``window_s`` long,
-every ``step_s``); a window is used when the commanded yaw rate moves in it (std of ``x``
->= ``min_excitation_rad_s``), the best fit explains the gyro (R^2 >= ``min_r2``), the
-slope is positive and the best lag is not at the edge of the search range. The lag at any
-time is interpolated between window centres (constant beyond the first and last). A run
-with no usable window has no identifiable lag.
+every ``step_s``, closed at both ends; a window whose centre lies past the last sample is
+not examined, and where the hop would then leave the run's last samples in no window, the
+last window ends on the last sample); a window is used when the commanded yaw rate moves in
+it (std of ``x`` >= ``min_excitation_rad_s``), the best fit explains the gyro (R^2 >=
+``min_r2``), the slope is positive and the best lag is not at the edge of the search
+range. The lag at any time is interpolated between window centres (constant beyond the
+first and last). A run with no usable window has no identifiable lag.
 """
 
 from __future__ import annotations
@@ -315,6 +317,10 @@ def estimate_lag_track(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: 
     else:
         starts = np.arange(t0, t1 - settings.window_s + settings.step_s, settings.step_s)
         starts = starts[starts + 0.5 * settings.window_s < t1]
+        if starts[-1] + settings.window_s < t1:
+            # a hop longer than half a window dropped the window of the run's tail: the
+            # last samples were in none; the last window ends on the last sample instead
+            starts = np.r_[starts, t1 - settings.window_s]
         width = settings.window_s
     centres, lags, r2s = [], [], []
     for s in starts:

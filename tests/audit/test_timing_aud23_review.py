@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.audit.timing import LagSettings, best_lag, lag_grid
+from terrain.audit.timing import LagSettings, best_lag, estimate_lag_track, lag_grid
 
 DT_S = 0.02
 
@@ -52,3 +52,31 @@ def test_lag_grid_is_symmetric_about_zero_and_inside_the_range(max_lag_s, lag_st
     assert grid[-1] <= max_lag_s + 1e-9 and grid[-1] > max_lag_s - lag_step_s
     if max_lag_s == 2.0 and lag_step_s == 0.02:
         assert np.array_equal(grid, np.arange(-2.0, 2.0 + 1e-9, 0.02))
+
+
+@pytest.mark.parametrize("window_s, step_s, moving_from_s", [
+    (30.0, 30.0, 60.5), (30.0, 20.0, 60.5), (20.0, 15.0, 65.5)])
+def test_the_last_samples_of_a_run_are_in_a_window_whatever_the_hop(window_s, step_s,
+                                                                    moving_from_s):
+    """Every sample is in a window: with a hop longer than half a window the window that
+    would cover a run's tail (centre past the last sample) was dropped, so a run of 70 s in
+    30 s windows every 30 s examined [0, 30] and [30, 60] only, and a lag whose only
+    excitation lies in the last 10 s was not identifiable (20 s every 15 s: 65-70 s in no
+    window); the last window now ends on the last sample."""
+    t, x = _commanded(duration_s=70.0)
+    x = np.where(t >= moving_from_s, x, 0.0)      # the commands move at the end only
+    lag = 0.1
+    wz = np.interp(t + lag, t, x)
+    track = estimate_lag_track(t, x, t, wz, LagSettings(
+        max_lag_s=1.0, lag_step_s=0.02, window_s=window_s, step_s=step_s,
+        min_excitation_rad_s=0.01))
+    assert track.identifiable
+    assert track.median_s == pytest.approx(lag, abs=0.005)
+
+
+def test_default_windows_are_unchanged_and_already_reach_the_last_sample():
+    """With the default hop (half a window) the windows already reached the last sample:
+    70 s gives [0, 30], [15, 45], [30, 60], [45, 75] as before (4 windows)."""
+    t, x = _commanded(duration_s=70.0)
+    track = estimate_lag_track(t, x, t, x, LagSettings(max_lag_s=1.0))
+    assert track.n_windows == 4
