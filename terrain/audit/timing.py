@@ -236,7 +236,10 @@ def best_lag(t_s: np.ndarray, x: np.ndarray, t_imu_s: np.ndarray, wz: np.ndarray
     Returns
     -------
     lag_s : float
-        Best lag (NaN when the stretch is not usable), s.
+        Best lag, s; NaN when the stretch is not usable: fewer than 8 samples whose IMU time
+        ``t - lag`` stays inside the IMU record for every candidate lag (``t_s`` within
+        ``max_lag_s`` of its ends, both ends included), or their ``x`` with a std below
+        ``min_excitation_rad_s``.
     r2 : float
         R^2 of the regression ``wz(t - lag) = a x(t) + c``.
     slope : float

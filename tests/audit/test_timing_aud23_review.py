@@ -80,3 +80,17 @@ def test_default_windows_are_unchanged_and_already_reach_the_last_sample():
     t, x = _commanded(duration_s=70.0)
     track = estimate_lag_track(t, x, t, x, LagSettings(max_lag_s=1.0))
     assert track.n_windows == 4
+
+
+@pytest.mark.parametrize("n, usable", [(7, False), (8, True)])
+def test_best_lag_needs_eight_samples_inside_the_imu_record_ends_included(n, usable):
+    """8 wheel samples whose every candidate IMU time lies inside the IMU record give a lag,
+    7 do not; a sample exactly max_lag_s from the IMU record's ends counts (the two outside,
+    0.5 s from them, do not)."""
+    t_imu = np.linspace(0.0, 20.0, 1001)
+    t = np.r_[0.5, np.linspace(1.0, 19.0, n), 19.5]
+    lag, r2, slope = best_lag(t, np.sin(t), t_imu, np.sin(t_imu),
+                              LagSettings(max_lag_s=1.0, lag_step_s=0.1))
+    assert np.isfinite(lag) == usable
+    if usable:
+        assert lag == pytest.approx(0.0, abs=0.01) and r2 > 0.99
