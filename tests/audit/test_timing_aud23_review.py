@@ -6,7 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from terrain.audit.timing import LagSettings, best_lag, estimate_lag_track, lag_grid
+from terrain.audit.replay import LOWPASS_MIN_SAMPLES, lowpass
+from terrain.audit.timing import (LagSettings, LagTrack, best_lag, estimate_lag_track,
+                                  lag_grid)
 
 DT_S = 0.02
 
@@ -94,3 +96,19 @@ def test_best_lag_needs_eight_samples_inside_the_imu_record_ends_included(n, usa
     assert np.isfinite(lag) == usable
     if usable:
         assert lag == pytest.approx(0.0, abs=0.01) and r2 > 0.99
+
+
+def test_drift_is_reported_over_exactly_min_span_s_and_not_one_ulp_short():
+    """Two windows exactly ``min_span_s`` apart span it (drift given); a span one ulp short
+    of it gives NaN."""
+    track = LagTrack(np.array([0.0, 45.0]), np.array([0.1, 0.4]), np.ones(2), 2)
+    assert track.drift_s_per_min(45.0) == pytest.approx(0.4)
+    assert np.isnan(track.drift_s_per_min(float(np.nextafter(45.0, 46.0))))
+
+
+def test_lowpass_filters_from_exactly_its_minimum_sample_count():
+    """LOWPASS_MIN_SAMPLES samples are filtered (scipy needs more than its 15-sample end
+    padding), one fewer come back unchanged (the IMU count prepare_frame requires)."""
+    for n, unchanged in ((LOWPASS_MIN_SAMPLES - 1, True), (LOWPASS_MIN_SAMPLES, False)):
+        v = np.sin(0.7 * np.arange(n))
+        assert np.array_equal(lowpass(v, 50.0, 2.0), v) == unchanged
