@@ -32,3 +32,25 @@ def test_the_option_refuses_too_few_parameter_resamples(capsys, tmp_path):
               "--param-bootstrap", "4"])
     assert exc.value.code == 2
     assert "argument --param-bootstrap" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("n_runs, min_units, n_units, segmented", [
+    (4, 4, 4, False),     # exactly min_units runs: one unit each, not cut
+    (5, 4, 5, False),
+    (3, 4, 6, True),      # one run short: each cut into ceil(4 / 3) = 2 segments
+    (1, 4, 4, True),      # a single run: min_units segments
+    (2, 2, 2, False),     # the smallest min_units, met exactly
+    (1, 2, 2, True),
+])
+def test_runs_are_cut_into_segments_only_below_min_units(n_runs, min_units, n_units,
+                                                         segmented):
+    """make_units keeps one unit per run from exactly ``min_units`` runs up, and below it
+    cuts every run into ``ceil(min_units / n_runs)`` segments (at least min_units units)."""
+    from audit_helpers import synthetic_frame
+
+    from terrain.audit.selection import make_units
+
+    frames = [synthetic_frame(f"r{k}", seed=k, n_cycles=1) for k in range(n_runs)]
+    units, cut = make_units(frames, min_units, lambda f: True)
+    assert (len(units), cut) == (n_units, segmented)
+    assert len({f.group for u in units for f in u}) == n_units
