@@ -23,8 +23,10 @@ not examined, and where the hop would then leave the run's last samples in no wi
 last window ends on the last sample); a window is used when the commanded yaw rate moves in
 it (std of ``x`` >= ``min_excitation_rad_s``), the best fit explains the gyro (R^2 >=
 ``min_r2``), the slope is positive and the best lag is not at the edge of the search
-range. The lag at any time is interpolated between window centres (constant beyond the
-first and last). A run with no usable window has no identifiable lag.
+range (``|lag| >= max_lag_s - 1.5 lag_step_s``: the grid's outermost point, or refined
+half a step or more from the next one towards it, may be a maximum cut off by the range).
+The lag at any time is interpolated between window centres (constant beyond the first and
+last). A run with no usable window has no identifiable lag.
 """
 
 from __future__ import annotations

@@ -112,3 +112,18 @@ def test_lowpass_filters_from_exactly_its_minimum_sample_count():
     for n, unchanged in ((LOWPASS_MIN_SAMPLES - 1, True), (LOWPASS_MIN_SAMPLES, False)):
         v = np.sin(0.7 * np.arange(n))
         assert np.array_equal(lowpass(v, 50.0, 2.0), v) == unchanged
+
+
+@pytest.mark.parametrize("lag, identifiable", [(0.8, True), (-0.8, True), (0.84, True),
+                                               (0.86, False), (0.9, False), (-0.9, False)])
+def test_a_window_whose_lag_lies_within_one_and_a_half_steps_of_the_range_end_is_not_used(
+        lag, identifiable):
+    """max_lag_s 1.0 in 0.1 s steps: a lag of 0.8 or 0.84 s is used, one from 0.85 s on
+    (the outermost grid point, or refined towards it) is at the edge of the search range
+    and gives no usable window, on either side."""
+    t, x = _commanded()
+    track = estimate_lag_track(t, x, t, np.interp(t + lag, t, x),
+                               LagSettings(max_lag_s=1.0, lag_step_s=0.1))
+    assert track.identifiable == identifiable
+    if identifiable:
+        np.testing.assert_allclose(track.lags_s, lag, atol=0.012)
