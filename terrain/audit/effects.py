@@ -179,7 +179,9 @@ def scope_mask(frame: AuditFrame, scope: str = "all") -> np.ndarray:
     frame : AuditFrame
         The frame (``n`` samples).
     scope : str
-        ``all``, ``active`` (not quiet: turning or within the quiet margin of a turn),
+        ``all``, ``active`` (not quiet: ``|x| >= quiet_rad_s``, or a turning sample
+        within ``quiet_margin_s``, that distance included; see
+        :class:`~terrain.audit.frames.FrameSettings`),
         ``moving``, ``straight`` or ``turning`` (manoeuvre classes of
         :mod:`terrain.audit.frames`).
 

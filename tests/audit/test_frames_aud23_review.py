@@ -4,10 +4,13 @@ docstring's table puts them."""
 
 from __future__ import annotations
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
-from terrain.audit.frames import (CURVE, SPIN, STOP, STRAIGHT, FrameSettings,
+from terrain.audit.effects import scope_mask
+from terrain.audit.frames import (CURVE, SPIN, STOP, STRAIGHT, FrameSettings, _quiet,
                                   classify_manoeuvres, scored_span)
 
 S = FrameSettings()
@@ -56,3 +59,19 @@ def test_scored_span_keeps_samples_exactly_edge_s_from_either_end(t0):
     inside = t[span] - t0
     assert inside[0] == S.edge_s and inside[-1] == 10.0 - S.edge_s
     assert span.sum() == int((10.0 - 2 * S.edge_s) / 0.25) + 1
+
+
+def test_quiet_needs_x_below_quiet_rad_s_and_no_turn_within_the_margin_included():
+    """|x| exactly quiet_rad_s is not quiet (one ulp below is); a sample exactly
+    quiet_margin_s (1.5 s, exact on a 0.25 s clock) from a turning sample is not quiet, one
+    step further is; scope 'active' is the complement."""
+    t = np.arange(0.0, 20.0, 0.25)
+    x = np.zeros_like(t)
+    x[8], x[9] = S.quiet_rad_s, np.nextafter(S.quiet_rad_s, 0.0)
+    x[60] = S.turn_rad_s                           # t = 15 s
+    quiet = _quiet(t, x, S)
+    assert not quiet[8] and quiet[9]
+    assert t[60] - t[54] == S.quiet_margin_s
+    assert not quiet[54] and quiet[53] and not quiet[66] and quiet[67]
+    frame = SimpleNamespace(n=len(t), quiet=quiet)
+    np.testing.assert_array_equal(scope_mask(frame, "active"), ~quiet)
