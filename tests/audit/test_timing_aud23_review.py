@@ -127,3 +127,16 @@ def test_a_window_whose_lag_lies_within_one_and_a_half_steps_of_the_range_end_is
     assert track.identifiable == identifiable
     if identifiable:
         np.testing.assert_allclose(track.lags_s, lag, atol=0.012)
+
+
+def test_windows_are_closed_a_sample_on_the_shared_edge_is_in_both():
+    """Windows are closed at both ends (module docstring): with the hop equal to the window
+    (60 s in 30 s windows) the sample at 30 s is in [0, 30] and in [30, 60], so the centres
+    are 15 and 45 s (14.75 s for a window open at its end)."""
+    t = np.arange(0.0, 60.0 + 0.25, 0.25)
+    rng = np.random.default_rng(1)
+    x = 3.0 * np.convolve(rng.normal(size=t.size), np.ones(9) / 9, "same")
+    track = estimate_lag_track(t, x, t, x, LagSettings(max_lag_s=1.0, lag_step_s=0.25,
+                                                       window_s=30.0, step_s=30.0))
+    assert track.n_windows == 2
+    np.testing.assert_array_equal(track.centres_s, [15.0, 45.0])
