@@ -26,9 +26,9 @@ from pipelines.arguments import DistinctSeeds, model_dir, output_dir, positive_n
 from terrain.errors import ConfigError, duplicated
 from terrain.io.shipped import load_dataset
 from terrain.serving.pyfunc import save_model
-from terrain.serving.evaluation import (encode_stream_scores, held_out_streams, pool_scores,
-                                        recipe_stream_names, runs_holding, seed_accuracies,
-                                        window_cv)
+from terrain.serving.evaluation import (encode_stream_scores, held_out_folds,
+                                        held_out_streams, pool_scores, recipe_stream_names,
+                                        runs_holding, seed_accuracies, window_cv)
 from terrain.serving.recipes import DEFAULT_RECIPES, RECIPES, fit_stream_model
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.tracking import tracked_run
@@ -192,10 +192,7 @@ def main(args: argparse.Namespace) -> int:
     wheel_cv, streams = args.part in ("wheel-cv", "both"), args.part in ("streams", "both")
     runs = load_dataset("borealtc")
     for kind in args.kinds if streams else []:
-        n_runs = len(runs_holding(runs, recipe_stream_names(RECIPES[kind])))
-        if args.folds > n_runs:  # iter_splits' own check, before the wheel CV and any fit
-            raise ConfigError(f"--folds {args.folds} over the {n_runs} runs the {kind} "
-                              "streams are cut from: every fold holds at least one run out")
+        check_folds(runs, kind, args.seeds, args.folds, args.switch_gap_s)
     report: dict = {}
     with tracked_run(EXPERIMENT, run_name=f"stream-eval-{args.part}",
                      params={"part": args.part,
@@ -260,6 +257,47 @@ def main(args: argparse.Namespace) -> int:
         print(json.dumps(report, indent=1, default=str)[:2000])
     print(run.describe())
     return 0
+
+
+def check_folds(runs, kind: str, seeds, folds: int, switch_gap_s: float) -> None:
+    """Refuse, before the wheel CV and any fit, a ``--folds`` the held-out streams of a
+    recipe cannot be cut with: the folds and streams of every seed are cut as
+    :func:`terrain.serving.evaluation.held_out_streams` cuts them (a fraction of a second
+    each), so what would stop them stops the command here.
+
+    At most as many folds as runs (every fold holds one out) is not enough: the stratified
+    split by run takes no more folds than the largest class has runs (22 of BorealTC's 55
+    wheel runs are SNOW: ``--folds 23`` ran the wheel CV, then failed), and each fold's
+    held-out stream needs runs of two terrains.
+
+    Parameters
+    ----------
+    runs : sequence of Run
+        The dataset's runs.
+    kind : str
+        Recipe of :data:`terrain.serving.recipes.RECIPES`.
+    seeds : sequence of int
+        ``--seeds``.
+    folds : int
+        ``--folds``.
+    switch_gap_s : float
+        ``--switch-gap-s``, s.
+
+    Raises
+    ------
+    ConfigError
+        ``--folds N over the M runs the <kind> streams are cut from (seed S): <why>``.
+    """
+    names = recipe_stream_names(RECIPES[kind])
+    for seed in seeds:
+        try:
+            for _ in held_out_folds(runs, names, seed, n_splits=folds,
+                                    switch_gap_s=switch_gap_s):
+                pass
+        except ConfigError as exc:
+            raise ConfigError(f"--folds {folds} over the {len(runs_holding(runs, names))} "
+                              f"runs the {kind} streams are cut from (seed {seed}): {exc}"
+                              ) from None
 
 
 def _fmt(recall: dict) -> str:

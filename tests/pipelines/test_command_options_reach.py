@@ -165,10 +165,13 @@ def test_stream_eval_refuses_an_infinite_switch_gap_before_reading_any_run(
 
 
 def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(monkeypatch):
-    """Each fold holds at least one run out: --folds N over N runs is the largest that
-    does (refused above it); the folds and the switch gap reach the held-out streams and
-    the MLflow parameters (a stand-in of three runs, caught at the first stream)."""
+    """The folds and the switch gap reach the held-out streams and the MLflow parameters
+    (a stand-in of three runs, caught at the first stream); a fold count the streams
+    cannot be cut with (here, by the stand-in of the folds' pre-check, more folds than
+    runs) is refused before them. (Which counts real runs take:
+    test_stream_eval_folds_cli22_review.py.)"""
     import pipelines.stream_eval as stream_eval
+    from terrain.errors import ConfigError
 
     calls = []
 
@@ -176,8 +179,14 @@ def test_stream_eval_takes_as_many_folds_as_runs_and_logs_the_stream_settings(mo
         calls.append(kwargs)
         raise _Stop()
 
+    def folds(runs, names, seed, n_splits, switch_gap_s):
+        if n_splits > len(runs):
+            raise ConfigError(f"{n_splits} folds over {len(runs)} split units")
+        return iter(())
+
     monkeypatch.setattr(stream_eval, "load_dataset", lambda name: ["r0", "r1", "r2"])
     monkeypatch.setattr(stream_eval, "runs_holding", lambda runs, names: runs)
+    monkeypatch.setattr(stream_eval, "held_out_folds", folds)
     monkeypatch.setattr(stream_eval, "held_out_streams", capture)
     tracking = RecordingRun()
     monkeypatch.setattr(stream_eval, "tracked_run", tracking)
