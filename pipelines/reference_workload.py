@@ -12,6 +12,8 @@ import time
 
 import numpy as np
 
+from terrain.errors import config_integer
+
 #: The workload's input: 4096 standard normal floats of seed 0 (read-only).
 REFERENCE_INPUT = np.random.default_rng(0).standard_normal(4096)
 REFERENCE_INPUT.setflags(write=False)
@@ -42,5 +44,11 @@ def sort_reference_ms(repeats: int = 200) -> float:
     -------
     float
         Milliseconds.
+
+    Raises
+    ------
+    ConfigError
+        ``repeats`` not an integer >= 1 (0 was the median of no time: NaN ms).
     """
+    config_integer("sort_reference_ms: repeats", repeats, 1)
     return 1e3 * float(np.median([sort_reference_s() for _ in range(repeats)]))
