@@ -46,8 +46,22 @@ def test_folds_beyond_the_largest_class_are_refused_before_the_wheel_cv(stubbed,
     assert stubbed == {"wheel_cv": [], "streams": []}
 
 
+def test_a_fold_whose_stream_cannot_be_cut_is_refused_before_the_wheel_cv(stubbed, capsys):
+    """Below the class limit, a fold may still hold too little for a stream (seed 0, 21
+    folds: ASPHALT/02, 9.85 s, beside one other run): the streams' own refusal now comes
+    before the wheel CV, naming --folds and the seed."""
+    assert main(["stream-eval", "--part", "both", "--kinds", "wheels", "--seeds", "0",
+                 "--folds", "21"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()[-1]
+    assert err.startswith("terrain stream-eval: error: --folds 21 over the 55 runs the "
+                          "wheels streams are cut from (seed 0): ")
+    assert "borealtc/ASPHALT/02" in err
+    assert stubbed == {"wheel_cv": [], "streams": []}
+
+
 def test_the_largest_fold_count_reaches_the_wheel_cv(stubbed):
-    """22 folds (the largest class's runs) is taken: the command reaches its work."""
+    """22 folds (the largest class's runs) with seed 0, whose every fold's stream is cut,
+    is taken: the command reaches its work."""
     assert main(["stream-eval", "--part", "both", "--kinds", "wheels", "--seeds", "0",
                  "--folds", "22"]) == 1
     assert len(stubbed["wheel_cv"]) == 1
