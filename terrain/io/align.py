@@ -360,7 +360,6 @@ def _interp_into(grid, t, v, is_gap, out, col):   # pragma: no cover - compiled
             out[i, col + k] = r
 
 
-@functools.lru_cache(maxsize=64)
 def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: float,
                             n_phases: int = 64) -> float:
     """Effective number of independent stream samples in the mean of one aligned window.
@@ -376,7 +375,9 @@ def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: floa
     stream at least as fast as the clock (anti-alias filtered, then interpolated) the count
     is taken as ``n_samples`` (one independent value per clock sample, an approximation).
     Memoised (it depends on its scalar arguments only): the single-window slip features call
-    it for every window.
+    it for every window. The arguments are checked on every call, before the memo is looked
+    up (its key read ``True`` as 1 and ``20.0`` as 20, so an argument refused on a first
+    call was accepted once an equal one had been memoised).
 
     Parameters
     ----------
@@ -403,6 +404,14 @@ def interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: floa
     config_integer("interpolated_mean_count.n_samples", n_samples, 1)
     config_integer("interpolated_mean_count.n_phases", n_phases, 1)
     config_positive("interpolated_mean_count", rate_hz=rate_hz, native_rate_hz=native_rate_hz)
+    return _interpolated_mean_count(int(n_samples), float(rate_hz), float(native_rate_hz),
+                                    int(n_phases))
+
+
+@functools.lru_cache(maxsize=64)
+def _interpolated_mean_count(n_samples: int, rate_hz: float, native_rate_hz: float,
+                             n_phases: int) -> float:
+    # the memoised computation of interpolated_mean_count, of checked arguments only
     if native_rate_hz >= rate_hz:
         return float(n_samples)
     t = np.arange(n_samples) / rate_hz
