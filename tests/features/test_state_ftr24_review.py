@@ -196,3 +196,25 @@ def test_library_calls_leave_numpy_global_random_state_alone():
         WindowFeatures(rate_hz=50.0).fit_transform(ws.X)
     after = np.random.get_state()
     assert state[0] == after[0] and np.array_equal(state[1], after[1]) and state[2:] == after[2:]
+
+
+@pytest.mark.parametrize("name, bad", [
+    ("window", {"band_width_hz": 2.5, "stats": ("mean", "mean")}),   # refused after bands
+    ("window", {"band_width_hz": 2.5, "min_speed_m_s": 0.0}),
+    ("physics", {"short_s": 0.5, "ridge": -1.0}),
+])
+def test_refused_refit_leaves_the_first_fit(name, bad):
+    X = _windows(100)
+    est = TRANSFORMERS[name]().fit(X)
+    out, names = est.transform(X), est.get_feature_names_out()
+    # windows of another length are featured from the bands, not the stored band weights
+    shorter = est.transform(X[:, :, :80]) if name == "window" else None
+    good = {k: v for k, v in est.get_params().items() if k in bad}
+    est.set_params(**bad)
+    with pytest.raises(Exception):
+        est.fit(X)
+    est.set_params(**good)      # the settings of the first fit again: its state is intact
+    np.testing.assert_array_equal(est.get_feature_names_out(), names)
+    np.testing.assert_array_equal(est.transform(X), out)
+    if shorter is not None:
+        np.testing.assert_array_equal(est.transform(X[:, :, :80]), shorter)
