@@ -728,6 +728,8 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
     Parameters
     ----------
     runs : sequence of Run
+        The runs, each read once (an iterator of runs is windowed as the same runs in a
+        list).
     signals : str or sequence of str
         See :func:`resolve_signals`.
     config : WindowConfig
@@ -750,6 +752,7 @@ def make_windows(runs: Sequence[Run], signals: str | Sequence[str] = "all",
         stream and the columns.
     """
     channels = resolve_signals(signals)
+    runs = list(runs)   # (an iterator was read to its end by the id check: no run windowed)
     shared = duplicated(run.run_id for run in runs)
     if shared:
         raise ConfigError(f"runs share run id(s) {listed(shared)}: windows are grouped, "

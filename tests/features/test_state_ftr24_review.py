@@ -218,3 +218,17 @@ def test_refused_refit_leaves_the_first_fit(name, bad):
     np.testing.assert_array_equal(est.transform(X), out)
     if shorter is not None:
         np.testing.assert_array_equal(est.transform(X[:, :, :80]), shorter)
+
+
+@pytest.mark.parametrize("as_iterable", [iter, lambda runs: (r for r in runs)])
+def test_make_windows_of_an_iterator_equals_that_of_a_list(as_iterable):
+    # the duplicate-id check read the iterator to its end: no run was left to window, and
+    # an empty WindowSet came back without a word
+    runs = [_run(0, "t/A/00"), _run(1, "t/A/01")]
+    config = WindowConfig(rate_hz=50.0)
+    listed = make_windows(runs, "all", config)
+    given = make_windows(as_iterable(runs), "all", config)
+    assert len(listed) > 0
+    np.testing.assert_array_equal(given.X, listed.X)
+    np.testing.assert_array_equal(given.run_ids, listed.run_ids)
+    assert given.counts == listed.counts
