@@ -423,7 +423,8 @@ def slip_table(runs: Sequence[Run], vehicle, terrains: Sequence[str],
     Parameters
     ----------
     runs : sequence of Run
-        Simulated runs with ``truth`` (``meta["scenario"]``, ``meta["seed"]``).
+        Simulated runs with ``truth`` (``meta["scenario"]``, ``meta["seed"]``), each read
+        once (an iterator of runs gives the tables of the same runs in a list).
     vehicle : HuskyParams or TrackedParams
         Skid-steer vehicle.
     terrains : sequence of str
@@ -440,6 +441,7 @@ def slip_table(runs: Sequence[Run], vehicle, terrains: Sequence[str],
     meta : pandas.DataFrame, shape (n, 6)
         ``run_id, terrain, scenario, seed, t_start_s, t_end_s``.
     """
+    runs = list(runs)   # (an iterator was read to its end by the windowing)
     ws = slip_windows(runs, config)
     Y = slip_targets(runs, ws, vehicle.track_m)
     X = slip_features(ws, vehicle, one_hot_probabilities(Y["terrain"], terrains))
