@@ -113,6 +113,9 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
     def fit(self, X, y=None):
         """Draw the kernel biases from the training windows.
 
+        NumPy's global random state is left as it was (aeon reseeds it to draw the
+        biases; this puts the caller's stream back).
+
         Parameters
         ----------
         X : numpy.ndarray
@@ -142,9 +145,15 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         config_integer("MiniRocketFeatures.random_state", self.random_state, 0, 2 ** 32 - 1)
         seed = int(self.random_state) % 2 ** 31
         X = _signal_windows(X)
-        self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
-                                  max_dilations_per_kernel=self.max_dilations_per_kernel,
-                                  n_jobs=self.n_jobs, random_state=seed).fit(X)
+        # aeon seeds NumPy's global generator with np.random.seed(seed) (its biases are
+        # drawn from it): the caller's random stream was reset to the seed's by every fit
+        caller_stream = np.random.get_state()
+        try:
+            self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
+                                      max_dilations_per_kernel=self.max_dilations_per_kernel,
+                                      n_jobs=self.n_jobs, random_state=seed).fit(X)
+        finally:
+            np.random.set_state(caller_stream)
         self.n_features_in_ = X.shape[1]
         return self
 

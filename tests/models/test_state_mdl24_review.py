@@ -1,0 +1,49 @@
+"""State, aliasing and reuse of the window models (review mdl24).
+
+Hidden global state: a fit must leave the caller's random streams (NumPy's global
+generator) as it found them; inputs are not modified; copies are independent.
+"""
+
+import numpy as np
+import pytest
+
+pytest.importorskip("aeon")
+
+from terrain.models.minirocket import MiniRocketFeatures, make_minirocket  # noqa: E402
+
+
+def _windows(seed=0, n=12, channels=2, samples=20):
+    rng = np.random.default_rng(seed)
+    X = rng.normal(size=(n, channels, samples))
+    y = np.repeat(["a", "b", "c"], n // 3)
+    return X, y
+
+
+@pytest.mark.parametrize("prior", [0, 123])
+def test_minirocket_fit_leaves_numpy_global_random_state_alone(prior):
+    """aeon's MiniRocket reseeds ``np.random`` with its seed: the caller's next draw was
+    the seed's, whatever the stream was before the fit."""
+    X, _ = _windows()
+    np.random.seed(prior)
+    expected = np.random.random(3)
+    np.random.seed(prior)
+    MiniRocketFeatures(n_kernels=84, random_state=5).fit(X)
+    np.testing.assert_array_equal(np.random.random(3), expected)
+
+
+def test_minirocket_pipeline_fit_leaves_numpy_global_random_state_alone():
+    X, y = _windows()
+    np.random.seed(7)
+    expected = np.random.random(3)
+    np.random.seed(7)
+    make_minirocket(random_state=3, n_kernels=84).fit(X, y)
+    np.testing.assert_array_equal(np.random.random(3), expected)
+
+
+def test_minirocket_features_do_not_depend_on_numpy_global_random_state():
+    X, _ = _windows()
+    np.random.seed(1)
+    a = MiniRocketFeatures(n_kernels=84, random_state=5).fit(X).transform(X)
+    np.random.seed(2)
+    b = MiniRocketFeatures(n_kernels=84, random_state=5).fit(X).transform(X)
+    np.testing.assert_array_equal(a, b)
