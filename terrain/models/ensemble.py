@@ -168,7 +168,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         Column in ``classes_`` of each fitted member's classes (:func:`class_columns`).
     n_features_in_ : int
         ``X.shape[1]`` in ``fit`` (channels of raw windows; features of a table); the
-        members check their own input at prediction.
+        members check their own input at prediction. Absent after a fit on input with no
+        second axis.
     """
 
     def __init__(self, estimators: Sequence[tuple[str, object]], weights=None,
@@ -242,6 +243,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         shape = X.shape if hasattr(X, "shape") else np.asarray(X).shape
         if len(shape) >= 2:
             self.n_features_in_ = shape[1]
+        else:   # (a refit on such input kept the width of the previous fit's input)
+            vars(self).pop("n_features_in_", None)
         self.classes_ = np.unique(y)
         n = len(self.estimators)
         self.weight_scores_ = {}

@@ -169,7 +169,8 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         Its labels, in the order of ``predict_proba``.
     n_features_in_ : int
         Number of input features: the fitted estimator's own ``n_features_in_``, else
-        ``X.shape[1]`` (channels for a raw ``(n_windows, n_channels, n_samples)`` input).
+        ``X.shape[1]`` (channels for a raw ``(n_windows, n_channels, n_samples)`` input);
+        absent where neither exists (the last fit's, never an earlier fit's).
     """
 
     def __init__(self, estimator, weight_param: str = "sample_weight") -> None:
@@ -217,6 +218,8 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
             n_features = shape[1] if len(shape) >= 2 else None
         if n_features is not None:
             self.n_features_in_ = n_features
+        else:   # (a refit on such input kept the width of the previous fit's input)
+            vars(self).pop("n_features_in_", None)
         return self
 
     def predict_proba(self, X) -> np.ndarray:

@@ -47,3 +47,38 @@ def test_minirocket_features_do_not_depend_on_numpy_global_random_state():
     np.random.seed(2)
     b = MiniRocketFeatures(n_kernels=84, random_state=5).fit(X).transform(X)
     np.testing.assert_array_equal(a, b)
+
+
+def _flat(X):
+    X = np.asarray(X, dtype=float)
+    return X.reshape(len(X), -1)
+
+
+def _member():
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+    return make_pipeline(FunctionTransformer(_flat), LogisticRegression())
+
+
+def _refit_on_one_axis(make):
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(12, 3))
+    y = np.repeat(["a", "b"], 6)
+    groups = np.repeat(["r1", "r2", "r3", "r4"], 3)
+    refitted = make().fit(X, y, groups).fit(X[:, 0], y, groups)
+    fresh = make().fit(X[:, 0], y, groups)
+    return refitted, fresh
+
+
+@pytest.mark.parametrize("kind", ["ensemble", "run_balanced"])
+def test_a_refit_on_input_without_a_second_axis_forgets_the_first_width(kind):
+    """A second fit on (n_windows,) input kept n_features_in_ of the first fit's 2-D
+    input: the refitted model claimed a width its members never saw."""
+    from terrain.models.ensemble import SoftVotingEnsemble
+    from terrain.models.weighting import run_balanced
+    make = {"ensemble": lambda: SoftVotingEnsemble([("m", _member())], weights=[1.0]),
+            "run_balanced": lambda: run_balanced(_member())}[kind]
+    refitted, fresh = _refit_on_one_axis(make)
+    assert not hasattr(fresh, "n_features_in_")
+    assert not hasattr(refitted, "n_features_in_")
