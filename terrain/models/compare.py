@@ -194,6 +194,9 @@ class CompareConfig:
                                      protocol=self.protocol, seeds=self.seeds,
                                      train_hop_s=self.train_hop_s,
                                      single_run_blocks=self.single_run_blocks)
+        # the caller's lists were kept: changing one later changed the validated grid
+        for axis in ("models", "signals", "windows_s", "datasets", "seeds", "history"):
+            object.__setattr__(self, axis, tuple(getattr(self, axis)))
 
     def cells(self) -> list[Cell]:
         """Every cell of the grid (model varies fastest).

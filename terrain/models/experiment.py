@@ -184,6 +184,10 @@ class ExperimentConfig:
                               f"twice), got {list(self.seeds)}")
         # WindowConfig's checks: train_window_config builds window_config, then sets its hop
         self.train_window_config() if self.train_hop_s is not None else self.window_config()
+        # the caller's lists were kept: changing one later changed the validated config
+        if not isinstance(self.signals, str):
+            object.__setattr__(self, "signals", tuple(self.signals))
+        object.__setattr__(self, "seeds", tuple(self.seeds))
 
     def train_window_config(self) -> WindowConfig | None:
         """Window settings of the training cut, or None when training uses the evaluation

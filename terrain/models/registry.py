@@ -191,6 +191,8 @@ class ModelConfig:
         if self.cnn_seeds > 1 and not cnn_kinds(self.kind, self.ensemble_members):
             raise ConfigError(f"cnn_seeds={self.cnn_seeds} averages CNNs, and model "
                               f"{self.kind!r} has none (CNN kinds: {list(CNN_MODELS)})")
+        # the caller's list was kept: changing it later changed the validated members
+        object.__setattr__(self, "ensemble_members", tuple(self.ensemble_members))
 
 
 def cnn_kinds(kind: str, ensemble_members: Sequence[str] = ENSEMBLE_MEMBERS) -> tuple[str, ...]:

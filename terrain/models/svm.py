@@ -84,6 +84,9 @@ class SVMConfig:
             config_positive("SVMConfig", search_C=c)
         for gamma in self.search_gamma:
             _check_gamma("search_gamma", gamma)
+        # the caller's list was kept: changing it later changed the validated grid
+        for name in ("search_C", "search_gamma"):
+            object.__setattr__(self, name, tuple(getattr(self, name)))
 
 
 def _check_gamma(name: str, gamma) -> None:

@@ -82,3 +82,38 @@ def test_a_refit_on_input_without_a_second_axis_forgets_the_first_width(kind):
     refitted, fresh = _refit_on_one_axis(make)
     assert not hasattr(fresh, "n_features_in_")
     assert not hasattr(refitted, "n_features_in_")
+
+
+def _configs():
+    from terrain.models.compare import CompareConfig
+    from terrain.models.experiment import ExperimentConfig
+    from terrain.models.registry import ModelConfig
+    from terrain.models.svm import SVMConfig
+    return [
+        (SVMConfig, {"search_C": [3.0, 10.0], "search_gamma": ["scale", 0.01]}),
+        (ModelConfig, {"kind": "ensemble", "ensemble_members": ["svm", "minirocket"]}),
+        (ExperimentConfig, {"signals": ["imu", "wheels"], "seeds": [0, 1]}),
+        (CompareConfig, {"models": ["svm"], "signals": ["imu"], "windows_s": [2.0],
+                         "datasets": ["borealtc"], "seeds": [0], "history": [1, 5]}),
+    ]
+
+
+@pytest.mark.parametrize("make, lists", _configs(),
+                         ids=lambda v: getattr(v, "__name__", ""))
+def test_a_frozen_config_does_not_hold_the_callers_list(make, lists):
+    """A list handed to a frozen config was kept as it was: the caller's later change to
+    it changed the validated config (an ensemble member given twice, a repeated seed), the
+    config was unhashable and unequal to the same config built from tuples."""
+    import copy
+    given = copy.deepcopy(lists)
+    config = make(**given)
+    same = make(**{k: tuple(v) if isinstance(v, list) else v for k, v in lists.items()})
+    assert config == same
+    assert hash(config) == hash(same)
+    for value in given.values():
+        if isinstance(value, list):
+            value.append(value[0])      # the caller reuses its list
+    assert config == same
+    for name, value in lists.items():
+        if isinstance(value, list):
+            assert getattr(config, name) == tuple(value)
