@@ -67,19 +67,21 @@ class ForestPipeline(CompiledPipeline):
 
     def _compiled(self) -> dict | None:
         """Packed trees of the final step, or ``None`` (scikit-learn's path): the final step
-        is not a fitted single-output forest classifier."""
+        is not a fitted single-output forest classifier. Repacked when its trees are not
+        those packed (a replaced or refitted step, a warm-start refit that added trees)."""
         final = self.steps[-1][1]
         trees = getattr(final, "estimators_", None)
         if not isinstance(final, ForestClassifier) or not trees:
             return None
         cached = self.__dict__.get("_packed_forest")
-        if cached is None or cached[0] is not trees:
+        # a warm-start refit appends trees to the same list: its length is part of the key
+        if cached is None or cached[0] is not trees or cached[1] != len(trees):
             try:
-                cached = (trees, pack_forest(final))
+                cached = (trees, len(trees), pack_forest(final))
             except ConfigError:
-                cached = (trees, None)
+                cached = (trees, len(trees), None)
             self._packed_forest = cached
-        return cached[1]
+        return cached[2]
 
     def _compiled_proba(self, compiled: dict, Xt) -> np.ndarray:
         """:func:`terrain.tree_predict.forest_proba` of the transformed features."""

@@ -117,3 +117,24 @@ def test_a_frozen_config_does_not_hold_the_callers_list(make, lists):
     for name, value in lists.items():
         if isinstance(value, list):
             assert getattr(config, name) == tuple(value)
+
+
+def test_a_forest_grown_by_a_warm_start_refit_is_repacked():
+    """A warm-start refit of the final forest appends trees to the same estimators_ list:
+    the packed trees, keyed on that list alone, stayed those of the first fit and the
+    compiled predict_proba averaged the old trees only."""
+    from sklearn.ensemble import ExtraTreesClassifier
+    from sklearn.preprocessing import StandardScaler
+    from terrain.models.forest import ForestPipeline
+    rng = np.random.default_rng(0)
+    X, Xn = rng.normal(size=(60, 4)), rng.normal(size=(20, 4))
+    y = np.repeat(["a", "b", "c"], 20)
+    pipe = ForestPipeline([("scale", StandardScaler()),
+                           ("trees", ExtraTreesClassifier(n_estimators=5, random_state=0))])
+    pipe.fit(X, y)
+    pipe.predict_proba(Xn)
+    forest = pipe.steps[-1][1]
+    forest.set_params(warm_start=True, n_estimators=10).fit(pipe[:-1].transform(X), y)
+    assert len(forest.estimators_) == 10
+    np.testing.assert_allclose(pipe.predict_proba(Xn),
+                               forest.predict_proba(pipe[:-1].transform(Xn)), atol=1e-12)
