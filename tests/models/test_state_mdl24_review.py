@@ -138,3 +138,57 @@ def test_a_forest_grown_by_a_warm_start_refit_is_repacked():
     assert len(forest.estimators_) == 10
     np.testing.assert_allclose(pipe.predict_proba(Xn),
                                forest.predict_proba(pipe[:-1].transform(Xn)), atol=1e-12)
+
+
+def _compiled_pipelines():
+    from sklearn.ensemble import ExtraTreesClassifier
+    from features.transformers import WindowFeatures
+    from terrain.models.forest import ForestPipeline
+    from terrain.models.svm import SVMConfig, svm_window_pipeline
+    channels, rate = ("wz", "ax"), 20.0
+    return {
+        "svm": lambda: svm_window_pipeline(channels, rate, SVMConfig(probability=True)),
+        "trees": lambda: ForestPipeline([("features", WindowFeatures(channels, rate)),
+                                         ("trees", ExtraTreesClassifier(8, random_state=0))]),
+        "minirocket": lambda: make_minirocket(n_kernels=84, max_dilations_per_kernel=4),
+    }
+
+
+@pytest.mark.parametrize("kind", ["svm", "trees", "minirocket"])
+def test_a_deep_copy_refitted_elsewhere_leaves_the_original_and_interleaving_is_free(kind):
+    """The fast paths cache fitted arrays on the pipeline: a deep copy refitted on other
+    windows (fewer classes) must not change the original's probabilities, and two
+    pipelines used alternately give what each gives alone."""
+    import copy
+    make = _compiled_pipelines()[kind]
+    X, y = _windows(0, n=30)
+    X2, y2 = _windows(1, n=30)
+    X2, y2 = X2[y2 != "c"], y2[y2 != "c"]
+    probe = _windows(2, n=9)[0]
+    first = make().fit(X, y)
+    expected = first.predict_proba(probe)
+    twin = copy.deepcopy(first)
+    np.testing.assert_array_equal(twin.predict_proba(probe), expected)
+    twin.fit(X2, y2)
+    assert list(twin.classes_) == ["a", "b"]
+    np.testing.assert_array_equal(first.predict_proba(probe), expected)
+    alone = make().fit(X2, y2).predict_proba(probe)
+    np.testing.assert_allclose(twin.predict_proba(probe), alone, atol=1e-12)
+    np.testing.assert_array_equal(first.predict(probe), first.classes_[expected.argmax(1)])
+
+
+@pytest.mark.parametrize("dtype", [np.float64, np.float32])
+def test_the_fast_path_leaves_the_callers_features_unchanged(dtype):
+    """The scaler of the fast path standardises in place: on a copy, never on the
+    caller's features (the first step here, so the caller's own array reaches it)."""
+    from terrain.models.svm import SVMConfig, SVMPipeline, make_svm
+    rng = np.random.default_rng(3)
+    X = (rng.normal(size=(30, 4)) * 5 + 2).astype(dtype)
+    y = np.repeat(["a", "b", "c"], 10)
+    pipe = SVMPipeline(make_svm(SVMConfig(probability=True)).steps).fit(X, y)
+    assert pipe._compiled() is not None
+    before = X.copy()
+    pipe.predict_proba(X)
+    pipe.predict(X[:1])
+    np.testing.assert_array_equal(X, before)
+    assert X.dtype == dtype
