@@ -48,7 +48,8 @@ class ExperimentConfig:
     dataset : {"borealtc", "vulpi", "combined"}
         Shipped training set (:data:`terrain.io.shipped.DATASET_SPECS`).
     signals : tuple of str
-        Signal sets or channels (see :func:`features.windows.resolve_signals`).
+        Signal sets or channels (see :func:`features.windows.resolve_signals`); one name
+        given as text is kept as the one-name tuple.
     window_s : float
         Window length, s (the ``paper`` protocol fixes 1.7 s).
     hop_s : float or None
@@ -184,9 +185,10 @@ class ExperimentConfig:
                               f"twice), got {list(self.seeds)}")
         # WindowConfig's checks: train_window_config builds window_config, then sets its hop
         self.train_window_config() if self.train_hop_s is not None else self.window_config()
-        # the caller's lists were kept: changing one later changed the validated config
-        if not isinstance(self.signals, str):
-            object.__setattr__(self, "signals", tuple(self.signals))
+        # the caller's lists were kept: changing one later changed the validated config; one
+        # name given as text is the one-name tuple (as_params joined its letters: "i,m,u")
+        object.__setattr__(self, "signals", (self.signals,) if isinstance(self.signals, str)
+                           else tuple(self.signals))
         object.__setattr__(self, "seeds", tuple(self.seeds))
 
     def train_window_config(self) -> WindowConfig | None:

@@ -192,3 +192,13 @@ def test_the_fast_path_leaves_the_callers_features_unchanged(dtype):
     pipe.predict(X[:1])
     np.testing.assert_array_equal(X, before)
     assert X.dtype == dtype
+
+
+def test_one_signal_name_given_as_text_is_the_one_name_tuple():
+    # mdl24's left-alone: as_params joined the letters of "imu" ("i,m,u"), so the MLflow
+    # param 'signals' of a library call named three unknown signals
+    from terrain.models.experiment import ExperimentConfig
+
+    text, one = ExperimentConfig(signals="imu"), ExperimentConfig(signals=("imu",))
+    assert text == one and text.signals == ("imu",)
+    assert text.as_params()["signals"] == "imu"
