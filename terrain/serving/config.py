@@ -49,9 +49,11 @@ class StreamConfig:
     gap_factor : float
         A step longer than this many median steps is a gap (as in the readers).
     streams : Mapping[str, tuple of str]
-        Stream name -> its channels.
+        Stream name -> its channels (kept as a read-only copy, the channels as tuples: a
+        dict changed after the checks does not change the config).
     clock_offsets_s : Mapping[str, float]
-        Per-stream offset added to its timestamps to put them on the service clock, s.
+        Per-stream offset added to its timestamps to put them on the service clock, s (kept
+        as a read-only copy).
     smoothing : SmoothingConfig
     max_backlog_s : float
         Decisions of a silent stretch (no sample of any stream in their window) due more
@@ -115,6 +117,11 @@ class StreamConfig:
             raise ConfigError(f"clock_offsets_s must be finite offsets of configured streams "
                               f"{list(self.streams)}; got unknown stream(s) {unknown}, "
                               f"non-finite {bad}")
+        # read-only copies of what was checked: the caller's dicts changed afterwards (a
+        # channel named twice, a NaN offset) changed this frozen config unchecked
+        object.__setattr__(self, "streams", MappingProxyType(
+            {s: tuple(ch) for s, ch in self.streams.items()}))
+        object.__setattr__(self, "clock_offsets_s", MappingProxyType(dict(self.clock_offsets_s)))
 
 
 def _check_streams(streams) -> None:
