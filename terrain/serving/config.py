@@ -7,7 +7,7 @@ neither imports the other for it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, fields
 from types import MappingProxyType
 from typing import Mapping
 
@@ -122,6 +122,13 @@ class StreamConfig:
         object.__setattr__(self, "streams", MappingProxyType(
             {s: tuple(ch) for s, ch in self.streams.items()}))
         object.__setattr__(self, "clock_offsets_s", MappingProxyType(dict(self.clock_offsets_s)))
+
+    def __reduce__(self):
+        """Copies and pickles rebuild the config from plain dicts (a read-only mapping proxy
+        cannot be pickled: ``copy.deepcopy`` of the default config, and of every service,
+        raised TypeError)."""
+        return type(self), tuple(dict(v) if isinstance(v, MappingProxyType) else v
+                                 for v in (getattr(self, f.name) for f in fields(self)))
 
 
 def _check_streams(streams) -> None:

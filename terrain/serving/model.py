@@ -121,10 +121,27 @@ class StreamModel:
                               f"classes {list(self.classes)[:10]!r:.200}: every window would "
                               "read probability 0 for every class")
 
+    def __reduce__(self):
+        """Copies and pickles rebuild the model with a copy of its ``metadata`` as read-only
+        as it was (a mapping proxy, the default, cannot be pickled: ``copy.deepcopy`` of a
+        model, and of every service, raised TypeError)."""
+        meta = self.metadata
+        if isinstance(meta, MappingProxyType):
+            return _frozen_model, (self.pipeline, self.channels, self.window, self.classes,
+                                   dict(meta))
+        return type(self), (self.pipeline, self.channels, self.window, self.classes, meta)
+
     @property
     def raw_channels(self) -> tuple[str, ...]:
         """Measured channels the model needs (:func:`measured_channels`)."""
         return measured_channels(self.channels)
+
+
+def _frozen_model(pipeline: Any, channels: tuple[str, ...], window: WindowConfig,
+                  classes: tuple[str, ...], metadata: dict) -> StreamModel:
+    """A :class:`StreamModel` whose ``metadata`` is a read-only view of ``metadata`` (what
+    :meth:`StreamModel.__reduce__` rebuilds)."""
+    return StreamModel(pipeline, channels, window, classes, MappingProxyType(metadata))
 
 
 def measured_channels(channels: Sequence[str]) -> tuple[str, ...]:

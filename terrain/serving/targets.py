@@ -99,6 +99,12 @@ class CataloguePeakTargets:
         self.fallback = min(table.values(), key=lambda s: s.traction)
         self.min_confidence = float(min_confidence)
 
+    def __reduce__(self):
+        """Copies and pickles rebuild the provider from its classes and threshold (its
+        read-only ``table``, a mapping proxy, cannot be pickled: ``copy.deepcopy`` of a
+        service using it raised TypeError)."""
+        return type(self), (self.classes, self.min_confidence)
+
     def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
         """Targets of ``terrain``, or the fallback (see class docstring).
 
@@ -157,6 +163,12 @@ class TableTargets:
         self.min_confidence = float(self.table.config.min_confidence)
         fb = self.table.fallback
         self.fallback = SlipTargets(fb.traction, fb.braking, fb.steady)
+
+    def __reduce__(self):
+        """Copies and pickles rebuild the provider from its classes and the table's settings
+        (the table's entries, a read-only mapping proxy, cannot be pickled:
+        ``copy.deepcopy`` of a service using it raised TypeError)."""
+        return type(self), (self.classes, self.table.config)
 
     def target_for(self, terrain: str | None, confidence: float, stale: bool) -> SlipTargets:
         """Targets of the table for a decision.

@@ -5,6 +5,8 @@ from __future__ import annotations
 
 import copy
 import pickle
+from dataclasses import replace
+from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
@@ -17,7 +19,7 @@ from terrain.serving.config import StreamConfig
 from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamService
 from terrain.serving.smoothing import ForwardFilter, SmoothingConfig
-from terrain.serving.targets import CataloguePeakTargets
+from terrain.serving.targets import CataloguePeakTargets, TableTargets
 
 
 @pytest.fixture(scope="module")
@@ -113,6 +115,46 @@ def test_two_services_used_interleaved_decide_as_used_one_after_the_other(wheel_
         if i < len(a_chunks):
             got_a += a.push("wheels", *a_chunks[i])
     assert _rows(got_a) == a_alone and _rows(got_b) == b_alone
+
+
+@pytest.mark.parametrize("how", ["deepcopy", "pickle"])
+def test_a_copied_service_decides_as_the_original_and_apart_from_it(wheel_model, wheels, how):
+    chunks = _chunks(wheels, 9)
+    half = len(chunks) // 2
+    svc = _service(wheel_model)
+    _push_all(svc, chunks[:half])
+    twin = copy.deepcopy(svc) if how == "deepcopy" else pickle.loads(pickle.dumps(svc))
+    rest = _rows(_push_all(twin, chunks[half:]))
+    assert rest and _rows(_push_all(svc, chunks[half:])) == rest
+    assert twin.refused_samples == svc.refused_samples
+
+
+def test_a_service_on_the_table_targets_copies(wheel_model, wheels):
+    chunks = _chunks(wheels, 9)
+    svc = StreamService(wheel_model, TableTargets(wheel_model.classes), StreamConfig())
+    _push_all(svc, chunks[:5])
+    twin = pickle.loads(pickle.dumps(copy.deepcopy(svc)))
+    assert _rows(_push_all(twin, chunks[5:])) == _rows(_push_all(svc, chunks[5:]))
+
+
+@pytest.mark.parametrize("metadata", [None, {"vehicle": "husky"},
+                                      MappingProxyType({"vehicle": "husky"})])
+def test_a_copied_model_keeps_its_metadata_as_read_only_as_it_was(wheel_model, metadata):
+    model = wheel_model if metadata is None else replace(wheel_model, metadata=metadata)
+    for twin in (copy.copy(model), copy.deepcopy(model), pickle.loads(pickle.dumps(model))):
+        assert type(twin.metadata) is type(model.metadata)
+        assert dict(twin.metadata) == dict(model.metadata)
+        assert (twin.channels, twin.window, twin.classes) == (
+            model.channels, model.window, model.classes)
+
+
+def test_stream_config_copies_and_pickles():
+    config = StreamConfig(clock_offsets_s={"wheels": 0.25}, hop_s=0.3)
+    for twin in (copy.copy(config), copy.deepcopy(config),
+                 pickle.loads(pickle.dumps(config))):
+        assert twin == config
+        assert dict(twin.streams) == dict(config.streams)
+        assert dict(twin.clock_offsets_s) == {"wheels": 0.25}
 
 
 def test_stream_config_does_not_follow_the_callers_dicts_after_it_is_checked():
