@@ -74,6 +74,7 @@ the first window taken as evidence, with the filter as without), ``clock_restart
 
 from __future__ import annotations
 
+import copy
 import math
 from typing import Mapping, Sequence
 
@@ -292,6 +293,10 @@ class StreamService:
             real number (text, complex, booleans, NumPy datetime or timedelta, an integer
             beyond the float range, ragged lists), or pandas timestamps and values whose
             indexes differ (:func:`~terrain.serving.inputs.check_same_index`).
+        Exception
+            Whatever the model's pipeline or the targets provider raises at a decision: the
+            samples stay taken and the forward filter is as before that decision, which the
+            next push makes again (decisions made before it in the same push are lost).
         """
         if not isinstance(stream, str) or stream not in self.config.streams:
             raise ConfigError(f"unknown stream {stream!r:.60}; configured: "
@@ -466,6 +471,17 @@ class StreamService:
         return X, age, set()
 
     def _decide(self, t: float) -> Decision:
+        """The decision at ``t``; the forward filter as before it when the model or the
+        provider raises (the next push decides ``t`` again: the window was folded in
+        twice, 0.964 for 0.941)."""
+        saved = copy.copy(self._filter)   # update replaces its arrays, never writes into them
+        try:
+            return self._decision(t)
+        except BaseException:
+            self._filter = saved
+            raise
+
+    def _decision(self, t: float) -> Decision:
         X, age, flags = self._window(t)
         intake = self._intake
         # the window [t - window_s, t) with both edges moved by the clock's rounding, as

@@ -6,7 +6,7 @@ from __future__ import annotations
 import copy
 import pickle
 from dataclasses import replace
-from types import MappingProxyType
+from types import MappingProxyType, SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.errors import TerrainError
 from terrain.run import WHEEL_CHANNELS
 from terrain.serving.config import StreamConfig
 from terrain.serving.replay import replay_run
@@ -198,3 +199,73 @@ def test_replay_leaves_the_run_as_it_was(wheel_model, borealtc_runs, train_runs)
     for s, f in run.streams.items():
         pd.testing.assert_frame_equal(f, before[s])
     assert dict(run.meta).keys() == meta.keys()
+
+
+@pytest.fixture(scope="module")
+def served_wheels(wheel_model, tmp_path_factory):
+    """The wheel-only model served in process (``load_context`` as MLflow calls it)."""
+    import joblib
+
+    from terrain.serving.served import ServedStreamModel, served_settings
+
+    path = tmp_path_factory.mktemp("served_state") / "pipeline.joblib"
+    joblib.dump(wheel_model.pipeline, path)
+    context = SimpleNamespace(artifacts={"pipeline": str(path)},
+                              model_config=served_settings(wheel_model))
+    model = ServedStreamModel()
+    model.load_context(context)
+    return model
+
+
+def test_a_request_is_left_as_sent_and_answered_whatever_came_before(served_wheels,
+                                                                     unseen_wheel_request):
+    first, second = unseen_wheel_request(8.0), unseen_wheel_request(12.0)
+    second.index = second.index + 1000     # a request with its own index
+    alone = served_wheels.decide(second.copy())
+    settings = copy.deepcopy(served_wheels.settings)
+    bad = second.copy()
+    bad.loc[bad.index[5], "t_s"] = np.nan
+    for frame in (first, bad.iloc[:3], bad):
+        sent = frame.copy()
+        state = np.random.get_state()
+        try:
+            served_wheels.decide(frame)
+        except TerrainError:
+            pass
+        pd.testing.assert_frame_equal(frame, sent)
+        assert np.array_equal(np.random.get_state()[1], state[1])
+    sent = second.copy()
+    pd.testing.assert_frame_equal(served_wheels.decide(second), alone)
+    pd.testing.assert_frame_equal(second, sent)
+    assert served_wheels.settings == settings
+
+
+class _FailingOnce(CataloguePeakTargets):
+    """Catalogue targets whose ``fail_at``-th answer raises (a provider briefly down)."""
+
+    def __init__(self, classes, fail_at):
+        super().__init__(classes)
+        self.fail_at, self.calls = fail_at, 0
+
+    def target_for(self, terrain, confidence, stale):
+        self.calls += 1
+        if self.calls == self.fail_at:
+            raise RuntimeError("provider down")
+        return super().target_for(terrain, confidence, stale)
+
+
+@pytest.mark.parametrize("fail_at", [1, 4, 9])
+def test_a_decision_that_raised_is_made_again_on_the_filter_as_before_it(
+        wheel_model, wheels, fail_at):
+    chunks = _chunks(wheels, 1)
+    expected = _rows(_push_all(_service(wheel_model), chunks))
+    svc = StreamService(wheel_model, _FailingOnce(wheel_model.classes, fail_at),
+                        StreamConfig())
+    got, raised = [], 0
+    for t, v in chunks:
+        try:
+            got += svc.push("wheels", t, v)
+        except RuntimeError:
+            raised += 1
+    assert raised == 1 and len(expected) > fail_at
+    assert _rows(got) == expected
