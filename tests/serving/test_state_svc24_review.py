@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 
 from terrain.errors import TerrainError
 from terrain.run import WHEEL_CHANNELS
+from terrain.serving.clocks import HeldChunks, HeldRun
 from terrain.serving.config import StreamConfig
 from terrain.serving.replay import replay_run
 from terrain.serving.service import StreamService
@@ -89,6 +90,26 @@ def test_a_reused_push_array_does_not_change_what_was_pushed(wheel_model, wheels
         got += svc.push("wheels", t_buf[:n], v_buf[:n])
         t_buf[:], v_buf[:] = -1.0, np.nan
     assert _rows(got) == expected
+
+
+def test_a_reused_push_array_does_not_change_the_samples_held(wheel_model, wheels):
+    # held while their clock is told: after a dropout (the timestamp_units rule) and as a
+    # restarted clock (late samples running on)
+    t = wheels["t_s"].to_numpy(float)
+    v = wheels[list(WHEEL_CHANNELS)].to_numpy(float)
+    pushes = [(t[:120], v[:120]), (t[120:] + 3.0, v[120:]), (t - 0.013, v * 1.01)]
+    chunks = [(ts[i:i + 5], vs[i:i + 5]) for ts, vs in pushes for i in range(0, len(ts), 5)]
+    fresh = _service(wheel_model)
+    expected = _rows(_push_all(fresh, chunks))
+    svc, got = _service(wheel_model), []
+    t_buf, v_buf = np.empty(5), np.empty((5, len(WHEEL_CHANNELS)))
+    for ts, vs in chunks:
+        n = len(ts)
+        t_buf[:n], v_buf[:n] = ts, vs
+        got += svc.push("wheels", t_buf[:n], v_buf[:n])
+        t_buf[:], v_buf[:] = 7.0, 0.5
+    assert fresh.clock_restarts and _rows(got) == expected
+    assert svc.refused_samples == fresh.refused_samples
 
 
 def test_a_decision_owns_its_probabilities(wheel_model, wheels):
@@ -269,3 +290,18 @@ def test_a_decision_that_raised_is_made_again_on_the_filter_as_before_it(
             raised += 1
     assert raised == 1 and len(expected) > fail_at
     assert _rows(got) == expected
+
+
+def test_held_samples_are_copies_of_the_pushed_arrays():
+    t, v = np.array([10.0, 10.1, 10.2]), np.arange(6.0).reshape(3, 2)
+    run, chunks = HeldRun(8), HeldChunks()
+    run.extend_clock(t, v, 1.0, {})
+    run.append(10.3, v[2])
+    chunks.append(t, v)
+    t[:], v[:] = -1.0, -1.0     # the robot refills its arrays
+    held_t, held_v = run.arrays()
+    np.testing.assert_array_equal(held_t, [10.0, 10.1, 10.2, 10.3])
+    np.testing.assert_array_equal(held_v, [[0, 1], [2, 3], [4, 5], [4, 5]])
+    (chunk_t, chunk_v), = chunks.take()
+    np.testing.assert_array_equal(chunk_t, [10.0, 10.1, 10.2])
+    np.testing.assert_array_equal(chunk_v, np.arange(6.0).reshape(3, 2))
