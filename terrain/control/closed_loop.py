@@ -307,8 +307,11 @@ class TractionLoop:
             use_ff = (~out.safe) & ff.engaged & (
                 np.abs(low + ff.correction_rad_s) < np.abs(low + correction))
             correction = np.where(use_ff, ff.correction_rad_s, correction)
-        self.log.append({"t_s": obs.t_s, "dt_s": dt, "omega_low_level": obs.omega_low_level,
-                         "v_long": est.v_long_m_s, "slip_est": out.slip,
+        # copies: the caller's command buffer and the estimator's arrays may be reused and
+        # changed in place after this call, and the correction returned is the caller's
+        self.log.append({"t_s": obs.t_s, "dt_s": dt,
+                         "omega_low_level": np.array(obs.omega_low_level, dtype=float),
+                         "v_long": np.array(est.v_long_m_s, dtype=float), "slip_est": out.slip,
                          "desired": out.desired_slip,
                          "steady_target": np.sign(np.asarray(est.v_long_m_s, dtype=float))
                          * float(targets.steady),
@@ -317,7 +320,7 @@ class TractionLoop:
                          "correction": correction, "terrain": label,
                          "decision_age_s": age, "target_traction": targets.traction,
                          "fallback": targets is self.table.fallback})
-        return correction if self.apply else np.zeros_like(correction)
+        return correction.copy() if self.apply else np.zeros_like(correction)
 
     def _decision_age(self, t_s: float, t_decided_s: float) -> float:
         """``t_s - t_decided_s``, s, taken as exactly 0 or ``max_decision_age_s`` where it
