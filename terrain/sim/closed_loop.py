@@ -306,6 +306,7 @@ class OnlineSensors:
         Returns
         -------
         Observation
+            Its arrays are its own (``omega_low_level`` a copy of the command given).
         """
         m = len(omega_low_level)
         widths = {"imu": 4, "wheels": 1 + m, "steer": 1 + m, "cam": 5, "currents": 1 + m}
@@ -317,7 +318,9 @@ class OnlineSensors:
         full = (np.array(self.imu_full_rows, dtype=float) if self.imu_full_rows
                 else np.zeros((0, 7)))
         self.imu_full_rows = []
-        return Observation(t_s, np.asarray(omega_low_level, dtype=float), **out,
+        # a copy: replay_observations passes a row of the finished run's omega_cmd, which a
+        # controller adding its correction in place would have rewritten
+        return Observation(t_s, np.array(omega_low_level, dtype=float), **out,
                            imu_full=full)
 
 
