@@ -263,7 +263,8 @@ class ContactGeometry:
     """Ground contact of a vehicle as a set of points in the body frame.
 
     The body frame is x forward, y left, z up (REP-103), origin at the vehicle's reference
-    point (centre of rotation used by the kinematics).
+    point (centre of rotation used by the kinematics). The arrays are kept as read-only
+    copies of those given (float, and int64 motor indices).
 
     Parameters
     ----------
@@ -330,6 +331,13 @@ class ContactGeometry:
             raise ConfigError(f"{owner}.load_share must hold one finite share >= 0 per contact "
                               f"({n_c}), summing to 1 (the weight), got "
                               f"{self.load_share!r:.80}")
+        # the checked values, as read-only copies: the caller's arrays (or lists) stayed the
+        # fields, so changing them afterwards changed a frozen, checked geometry
+        for name, value in (("positions_m", pos), ("motor_of_contact", motors.astype(np.int64)),
+                            ("load_share", share)):
+            value = np.array(value, copy=True)
+            value.flags.writeable = False
+            object.__setattr__(self, name, value)
 
     @property
     def n_motors(self) -> int:
