@@ -353,7 +353,7 @@ class SlipTable:
     Parameters
     ----------
     entries : Mapping[str, DesiredSlip]
-        Class label -> targets (read-only mapping).
+        Class label -> targets (kept as a read-only copy of the mapping given).
     fallback : DesiredSlip
         Conservative targets (:func:`fallback_entry`).
     config : DesiredSlipConfig
@@ -363,6 +363,17 @@ class SlipTable:
     entries: Mapping[str, DesiredSlip]
     fallback: DesiredSlip
     config: DesiredSlipConfig
+
+    def __post_init__(self) -> None:
+        # a read-only copy: the caller's dict stayed the entries, so changing it afterwards
+        # changed the table (a class deleted there was served the fallback)
+        if isinstance(self.entries, Mapping):
+            object.__setattr__(self, "entries", MappingProxyType(dict(self.entries)))
+
+    def __reduce__(self):
+        """Copy and pickle through a plain dict of the entries (a mappingproxy does
+        neither: copy.deepcopy and pickle failed with a TypeError)."""
+        return type(self), (dict(self.entries), self.fallback, self.config)
 
     def frame(self) -> pd.DataFrame:
         """The table as a frame with :data:`TABLE_COLUMNS` (fallback last).
