@@ -246,7 +246,7 @@ class CombinedSlipParams:
     friction_scale : Mapping[str, float]
         Factor on the friction of the catalogue curve of a rigid surface for this tyre, by
         terrain name (:meth:`surface_curve`; physics v2 only), each finite and > 0; surfaces
-        without an entry keep the catalogue curve.
+        without an entry keep the catalogue curve. Kept as a read-only copy.
 
     Raises
     ------
@@ -275,6 +275,15 @@ class CombinedSlipParams:
                               f"names to factors, got {self.friction_scale!r:.80}")
         config_positive("CombinedSlipParams", **{
             f"friction_scale[{name}]": factor for name, factor in self.friction_scale.items()})
+        # a read-only copy of the checked factors: the caller's dict stayed the field, so a
+        # factor changed there afterwards (NaN, -1) reached surface_curve unchecked
+        object.__setattr__(self, "friction_scale", MappingProxyType(dict(self.friction_scale)))
+
+    def __reduce__(self):
+        """Copy and pickle through a plain dict of the factors (a mappingproxy does
+        neither: copy.deepcopy and pickle of the Husky's tyre failed with a TypeError)."""
+        return type(self), (self.side_force_factor, self.source, self.hold_at_peak,
+                            dict(self.friction_scale))
 
     def surface_curve(self, terrain_name: str, curve):
         """Traction-slip curve of this tyre on a rigid surface (``friction_scale`` applied).

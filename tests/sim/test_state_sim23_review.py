@@ -3,11 +3,17 @@ must not be a view of a finished run's arrays or of what it passed in."""
 
 from __future__ import annotations
 
+import copy
+import pickle
+
 import numpy as np
+import pytest
 
 from terrain.sim import SimConfig
 from terrain.sim.closed_loop import replay_observations
+from terrain.sim.forces import COMBINED_SLIP, CombinedSlipParams
 from terrain.sim.simulate import simulate_with_physics
+from terrain.terramechanics.catalogue import get_terrain
 
 
 def _short_run():
@@ -36,3 +42,28 @@ def test_replaying_twice_gives_the_same_observations():
     for a, b in zip(first, second):
         for x, y in zip(a, b):
             np.testing.assert_array_equal(x, y)
+
+
+def test_a_tyres_friction_scale_is_checked_once_and_kept():
+    """CombinedSlipParams checks each friction factor (finite, > 0) when made but kept the
+    caller's dict: a factor set to NaN or -1 there afterwards reached surface_curve
+    unchecked."""
+    scale = {"ICE": 5.0}
+    tyre = CombinedSlipParams(0.6, "test", friction_scale=scale)
+    scale["ICE"] = float("nan")
+    scale["ASPHALT"] = -1.0
+    assert dict(tyre.friction_scale) == {"ICE": 5.0}
+    with pytest.raises(TypeError):
+        tyre.friction_scale["ICE"] = 2.0
+
+
+@pytest.mark.parametrize("copier", [copy.deepcopy, lambda t: pickle.loads(pickle.dumps(t))],
+                         ids=["deepcopy", "pickle"])
+def test_the_catalogued_tyre_copies_and_pickles(copier):
+    """The Husky's tyre (a read-only friction_scale) made copy.deepcopy and pickle fail with
+    a bare TypeError; the copy scales the same curves."""
+    tyre = COMBINED_SLIP["husky"]
+    twin = copier(tyre)
+    assert twin == tyre
+    ice = get_terrain("ICE").curve
+    assert twin.surface_curve("ICE", ice) == tyre.surface_curve("ICE", ice)
