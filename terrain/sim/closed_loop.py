@@ -347,7 +347,8 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
     ConfigError
         A rate that is not a finite number > 0 (text, None or a boolean included), a
         controller that is not callable, or ``sensors`` without the ``record`` and ``take``
-        of :class:`OnlineSensors`.
+        of :class:`OnlineSensors`. The hook itself, at a step earlier than one it has seen:
+        it serves one run (its call count and its sensors carry that run's state).
     """
     config_positive("make_hook", control_rate_hz=control_rate_hz)
     # each failed only at its first use, inside the run: None as the controller with a bare
@@ -359,9 +360,16 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
         raise ConfigError(f"make_hook.sensors must be OnlineSensors (record and take), got "
                           f"{type(sensors).__name__}")
     period = 1.0 / control_rate_hz
-    state = {"calls": 0}
+    state = {"calls": 0, "t_s": -math.inf}
 
     def hook(snap: PlantSnapshot) -> np.ndarray | None:
+        if snap.t_s < state["t_s"]:
+            # a second run (its clock starts again): the call count and the sensors' state
+            # are the first run's, and it called the controller not once, silently
+            raise ConfigError(f"this closed-loop hook serves one run: it saw t = "
+                              f"{state['t_s']:g} s, now t = {snap.t_s:g} s; make a new hook "
+                              f"(and OnlineSensors) for each run")
+        state["t_s"] = snap.t_s
         sensors.record(snap)
         # the n-th call at n period (a running sum of periods drifts, _Channel)
         if snap.t_s + SCHEDULE_TOLERANCE_S < state["calls"] * period:

@@ -9,10 +9,11 @@ import pickle
 import numpy as np
 import pytest
 
+from terrain.errors import ConfigError
 from terrain.sim import SimConfig
-from terrain.sim.closed_loop import replay_observations
+from terrain.sim.closed_loop import OnlineSensors, make_hook, replay_observations
 from terrain.sim.forces import COMBINED_SLIP, CombinedSlipParams
-from terrain.sim.simulate import simulate_with_physics
+from terrain.sim.simulate import DEFAULT_SENSORS, simulate_with_physics
 from terrain.terramechanics.catalogue import get_terrain
 
 
@@ -67,3 +68,18 @@ def test_the_catalogued_tyre_copies_and_pickles(copier):
     assert twin == tyre
     ice = get_terrain("ICE").curve
     assert twin.surface_curve("ICE", ice) == tyre.surface_curve("ICE", ice)
+
+
+def test_a_hook_used_for_a_second_run_says_so():
+    """A hook counts its controller calls from its first run: handed to a second run it
+    called the controller only once the time passed the first run's call count (a run as
+    long as the first: not once), silently. It serves one run; a second is refused."""
+    config = SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="straight_accel",
+                       duration_s=0.5, seed=1)
+    sensors = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 1, 0.5)
+    calls = []
+    hook = make_hook(sensors, lambda obs: calls.append(obs.t_s), 50.0)
+    simulate_with_physics(config, hook)
+    assert len(calls) == 26
+    with pytest.raises(ConfigError, match="one run"):
+        simulate_with_physics(config, hook)
