@@ -6,10 +6,13 @@ from __future__ import annotations
 
 import numpy as np
 from control_helpers import observation
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from terrain.control import build_slip_table, config_for_vehicle
 from terrain.control.closed_loop import TractionLoop
 from terrain.control.estimators import VelocityEstimate
+from terrain.control.traction import TractionController
 
 
 class _Buffered:
@@ -71,3 +74,29 @@ def test_changing_the_returned_correction_leaves_the_log_alone():
     before = loop.log[-1]["correction"].copy()
     out += 100.0
     np.testing.assert_array_equal(loop.log[-1]["correction"], before)
+
+
+@settings(max_examples=25, deadline=None)
+@given(history=st.lists(st.tuples(st.floats(0.5, 10.0), st.floats(0.0, 3.0),
+                                  st.floats(-2.0, 2.0)), min_size=1, max_size=6),
+       probe=st.tuples(st.floats(0.5, 10.0), st.floats(0.0, 3.0), st.floats(-2.0, 2.0)))
+def test_a_reset_controller_answers_as_a_fresh_one(history, probe):
+    """After any history, reset() returns the controller to its freshly made state: the
+    same output as a new controller on the same input (integral, derivative, held
+    correction and active flags all forgotten)."""
+    cfg, n = config_for_vehicle("husky", kp=2.0, ki=5.0, kd=0.1)
+    targets = build_slip_table(["GRASS"]).entries["GRASS"]
+
+    def step(ctl, omega, v, a):
+        return ctl.step(targets, np.full(n, omega), np.full(n, omega * 0.9), np.full(n, v),
+                        np.full(n, a), abs(v), 0.02)
+
+    used = TractionController(cfg, n)
+    for row in history:
+        step(used, *row)
+    used.reset()
+    fresh = TractionController(cfg, n)
+    for x, y in zip(step(used, *probe), step(fresh, *probe)):
+        np.testing.assert_array_equal(x, y)
+    for x, y in zip(used.state, fresh.state):
+        np.testing.assert_array_equal(x, y)
