@@ -174,7 +174,8 @@ def main(args: argparse.Namespace) -> int:
     Parameters
     ----------
     args : argparse.Namespace
-        Parsed arguments of :func:`add_arguments`.
+        Parsed arguments of :func:`add_arguments` (left as they are: the defaults are
+        filled in a copy).
 
     Returns
     -------
@@ -188,6 +189,9 @@ def main(args: argparse.Namespace) -> int:
         ``--folds`` than runs to cut the streams from (once the runs are read, before any
         model is fitted).
     """
+    # (a copy: the defaults filled in the caller's Namespace read as given options, and
+    # the same arguments run again were refused)
+    args = argparse.Namespace(**vars(args))
     resolve_options(args)   # before any run is read
     wheel_cv, streams = args.part in ("wheel-cv", "both"), args.part in ("streams", "both")
     runs = load_dataset("borealtc")
