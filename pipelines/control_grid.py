@@ -99,25 +99,30 @@ def _plots(traces: dict, table, out: Path) -> list[Path]:
             continue
         off = traces[veh, ter, sc, "off", seed]
         fig, ax = plt.subplots(figsize=(7, 3))
-        ax.plot(off["t_s"], off["slip_true_1"], label="true slip, off", lw=0.8)
-        ax.plot(tr["t_s"], tr["slip_true_1"], label="true slip, traction", lw=0.8)
-        ax.plot(tr["t_s"], tr["target_1"], "k--", label="target", lw=0.8)
-        ax.set(xlabel="t (s)", ylabel="slip, unit 1", title=f"{veh} {ter} {sc} seed {seed}")
-        ax.legend(fontsize=7)
-        paths.append(out / f"slip_{veh}_{ter}_{sc}.png")
-        fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
-        plt.close(fig)
+        try:    # closed also when the write fails: pyplot would hold it open
+            ax.plot(off["t_s"], off["slip_true_1"], label="true slip, off", lw=0.8)
+            ax.plot(tr["t_s"], tr["slip_true_1"], label="true slip, traction", lw=0.8)
+            ax.plot(tr["t_s"], tr["target_1"], "k--", label="target", lw=0.8)
+            ax.set(xlabel="t (s)", ylabel="slip, unit 1",
+                   title=f"{veh} {ter} {sc} seed {seed}")
+            ax.legend(fontsize=7)
+            paths.append(out / f"slip_{veh}_{ter}_{sc}.png")
+            fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
+        finally:
+            plt.close(fig)
     fig, ax = plt.subplots(figsize=(7, 3))
-    lab = table["vehicle"] + "\n" + table["terrain"] + "\n" + table["scenario"].str[:8]
-    x = range(len(table))
-    ax.bar([i - 0.2 for i in x], table["energy_off"], 0.4, label="off")
-    ax.bar([i + 0.2 for i in x], table["energy_on"], 0.4, label="traction")
-    ax.set_xticks(list(x), lab, fontsize=6)
-    ax.set(ylabel="energy (J/m)")
-    ax.legend()
-    paths.append(out / "energy_per_m.png")
-    fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
-    plt.close(fig)
+    try:
+        lab = table["vehicle"] + "\n" + table["terrain"] + "\n" + table["scenario"].str[:8]
+        x = range(len(table))
+        ax.bar([i - 0.2 for i in x], table["energy_off"], 0.4, label="off")
+        ax.bar([i + 0.2 for i in x], table["energy_on"], 0.4, label="traction")
+        ax.set_xticks(list(x), lab, fontsize=6)
+        ax.set(ylabel="energy (J/m)")
+        ax.legend()
+        paths.append(out / "energy_per_m.png")
+        fig.savefig(paths[-1], dpi=90, bbox_inches="tight")
+    finally:
+        plt.close(fig)
     return paths
 
 

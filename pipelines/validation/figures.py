@@ -18,9 +18,10 @@ Nothing in the library imports this module.
 
 from __future__ import annotations
 
+from contextlib import contextmanager
 from pathlib import Path
 from types import MappingProxyType
-from typing import Callable, Mapping, Sequence
+from typing import Callable, Iterator, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
@@ -35,14 +36,25 @@ TUNINGS = ("noise", "thesis")
 
 
 def _save(fig, path: Path, title: str) -> Path:
-    """Title, lay out, write and close ``fig``; returns ``path``."""
-    import matplotlib.pyplot as plt
-
+    """Title, lay out and write ``fig``; returns ``path``."""
     fig.suptitle(title, fontsize=9)
     fig.tight_layout()
     fig.savefig(path, dpi=100)
-    plt.close(fig)
     return path
+
+
+@contextmanager
+def _pyplot_figure(*args, **kwargs) -> Iterator[tuple]:
+    """``matplotlib.pyplot.subplots(*args, **kwargs)``, the figure closed on leaving, also
+    when drawing or writing it fails (a missing folder, a full disk): an open figure stays
+    in pyplot's registry, held in memory by a process that draws again."""
+    import matplotlib.pyplot as plt
+
+    fig, axes = plt.subplots(*args, **kwargs)
+    try:
+        yield fig, axes
+    finally:
+        plt.close(fig)
 
 
 def slip_tracking(terrains: Sequence[str] = THESIS_TERRAINS, seed: int = 1,
@@ -145,34 +157,32 @@ def plot_slip_tracking(frame: pd.DataFrame, path: Path, smooth_s: float = 0.5) -
     pathlib.Path
         ``path``.
     """
-    import matplotlib.pyplot as plt
-
     terrains = list(dict.fromkeys(frame["terrain"]))
-    fig, axes = plt.subplots(2, len(terrains), figsize=(3.4 * len(terrains), 5.2),
-                             sharex=True, squeeze=False)
-    for j, terrain in enumerate(terrains):
-        rows = frame[frame["terrain"] == terrain]
-        top, bottom = axes[0, j], axes[1, j]
-        first = rows[rows["tuning"] == TUNINGS[0]]
-        step = float(np.median(np.diff(first["t_s"])))
-        span = max(int(round(smooth_s / step)), 1)
-        for tuning in TUNINGS:
-            part = rows[rows["tuning"] == tuning]
-            mean = part["slip_est"].rolling(span, center=True, min_periods=1).mean()
-            top.plot(part["t_s"], mean, lw=1.0, label=f"EKF, {tuning} tuning")
-        top.plot(first["t_s"], first["slip_true"], "k", lw=1.0, label="true")
-        top.set(title=terrain, ylabel="slip ratio, wheel 1" if j == 0 else None)
-        nis = binned_nis(first["t_s"], first["nis"], first["dof"])
-        bottom.fill_between(nis["t_s"], nis["lower"], nis["upper"], color="0.85", step="mid",
-                            label="95 % chi-square, independent steps")
-        bottom.step(nis["t_s"], nis["nis_per_dof"], where="mid", label="noise tuning")
-        bottom.axhline(1.0, color="k", lw=0.6)
-        bottom.set(xlabel="t (s)", ylabel="NIS / dof, 1 s bins" if j == 0 else None)
-    axes[0, 0].legend(fontsize=7)
-    axes[1, 0].legend(fontsize=7)
-    seeds = ", ".join(str(s) for s in sorted(set(frame["seed"])))
-    return _save(fig, path, "AgriMaRo straight_accel (thesis ch. 7.2.3), fine encoder, "
-                            f"seed {seeds}")
+    with _pyplot_figure(2, len(terrains), figsize=(3.4 * len(terrains), 5.2), sharex=True,
+                        squeeze=False) as (fig, axes):
+        for j, terrain in enumerate(terrains):
+            rows = frame[frame["terrain"] == terrain]
+            top, bottom = axes[0, j], axes[1, j]
+            first = rows[rows["tuning"] == TUNINGS[0]]
+            step = float(np.median(np.diff(first["t_s"])))
+            span = max(int(round(smooth_s / step)), 1)
+            for tuning in TUNINGS:
+                part = rows[rows["tuning"] == tuning]
+                mean = part["slip_est"].rolling(span, center=True, min_periods=1).mean()
+                top.plot(part["t_s"], mean, lw=1.0, label=f"EKF, {tuning} tuning")
+            top.plot(first["t_s"], first["slip_true"], "k", lw=1.0, label="true")
+            top.set(title=terrain, ylabel="slip ratio, wheel 1" if j == 0 else None)
+            nis = binned_nis(first["t_s"], first["nis"], first["dof"])
+            bottom.fill_between(nis["t_s"], nis["lower"], nis["upper"], color="0.85", step="mid",
+                                label="95 % chi-square, independent steps")
+            bottom.step(nis["t_s"], nis["nis_per_dof"], where="mid", label="noise tuning")
+            bottom.axhline(1.0, color="k", lw=0.6)
+            bottom.set(xlabel="t (s)", ylabel="NIS / dof, 1 s bins" if j == 0 else None)
+        axes[0, 0].legend(fontsize=7)
+        axes[1, 0].legend(fontsize=7)
+        seeds = ", ".join(str(s) for s in sorted(set(frame["seed"])))
+        return _save(fig, path, "AgriMaRo straight_accel (thesis ch. 7.2.3), fine encoder, "
+                                f"seed {seeds}")
 
 
 def plot_straight_line(path: Path, duration_s: float = 8.0, seed: int = 0) -> Path:
@@ -192,19 +202,18 @@ def plot_straight_line(path: Path, duration_s: float = 8.0, seed: int = 0) -> Pa
     pathlib.Path
         ``path``.
     """
-    import matplotlib.pyplot as plt
-
-    fig, axes = plt.subplots(1, len(THESIS_STRAIGHT_LINE), figsize=(10.2, 3.0), sharex=True)
-    for ax, (terrain, (lo, hi, peak)) in zip(axes, THESIS_STRAIGHT_LINE.items()):
-        t, slip = straight_line_slip(terrain, duration_s, seed)
-        ax.axhspan(lo, hi, color="0.85", label="thesis steady range")
-        ax.axhline(peak, color="C3", ls="--", lw=0.9, label="thesis peak")
-        ax.plot(t, slip, "k", lw=1.0, label="simulated (true slip)")
-        ax.set(title=terrain, xlabel="t (s)",
-               ylabel="slip ratio, mean of 3 wheels" if ax is axes[0] else None)
-    axes[0].legend(fontsize=7)
-    return _save(fig, path, "AgriMaRo straight_accel (1 m/s^2 to 1 m/s, thesis ch. 7.2.3), "
-                            f"seed {seed}")
+    with _pyplot_figure(1, len(THESIS_STRAIGHT_LINE), figsize=(10.2, 3.0),
+                        sharex=True) as (fig, axes):
+        for ax, (terrain, (lo, hi, peak)) in zip(axes, THESIS_STRAIGHT_LINE.items()):
+            t, slip = straight_line_slip(terrain, duration_s, seed)
+            ax.axhspan(lo, hi, color="0.85", label="thesis steady range")
+            ax.axhline(peak, color="C3", ls="--", lw=0.9, label="thesis peak")
+            ax.plot(t, slip, "k", lw=1.0, label="simulated (true slip)")
+            ax.set(title=terrain, xlabel="t (s)",
+                   ylabel="slip ratio, mean of 3 wheels" if ax is axes[0] else None)
+        axes[0].legend(fontsize=7)
+        return _save(fig, path, "AgriMaRo straight_accel (1 m/s^2 to 1 m/s, thesis ch. 7.2.3), "
+                                f"seed {seed}")
 
 
 def _draw_slip_tracking(path: Path, quick: bool) -> Path:
