@@ -209,8 +209,10 @@ def main(args: argparse.Namespace) -> int:
         Exit status, 0.
     """
     # the catalogue reads terrain names in any case; the tables, plots and the soft-terrain
-    # slip-limit bound (SOFT) compare them in upper case
-    args.terrains = [str(t).upper() for t in args.terrains]
+    # slip-limit bound (SOFT) compare them in upper case (in a copy: the caller's Namespace
+    # is left as it was)
+    args = argparse.Namespace(**{**vars(args),
+                                 "terrains": [str(t).upper() for t in args.terrains]})
     check_grid(args)
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)

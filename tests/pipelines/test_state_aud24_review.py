@@ -106,3 +106,15 @@ def test_control_grid_plots_that_cannot_be_written_are_closed_all_the_same(tmp_p
         _plots(traces, table, tmp_path / "missing")
     assert _open_figures() == before
     assert len(_plots(traces, table, tmp_path)) == 2 and _open_figures() == before
+
+
+def test_control_grid_main_leaves_the_parsed_terrains_as_they_were(monkeypatch, tmp_path):
+    # main upper-cased --terrains in the caller's Namespace (ice -> ICE)
+    from pipelines import control_grid
+
+    monkeypatch.setattr(control_grid, "check_grid", _stop)
+    args = _parsed(control_grid, ["--terrains", "ice", "Grass", "--out", str(tmp_path / "g")])
+    before = copy.deepcopy(vars(args))
+    with pytest.raises(_Stop):
+        control_grid.main(args)
+    assert vars(args) == before
