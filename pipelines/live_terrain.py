@@ -108,15 +108,18 @@ class LiveClassifier:
         Raises
         ------
         DataFormatError
-            Wheel and current samples at different times.
+            Wheel and current samples at different times (before any sample is pushed: the
+            classifier is left as it was).
         """
+        # checked before any sample is pushed: a refused observation leaves the service as
+        # it was (its IMU samples pushed first, and the decisions they completed lost)
+        if len(obs.wheels) and not np.array_equal(obs.wheels[:, 0], obs.currents[:, 0]):
+            raise DataFormatError("wheel and current samples at different times",
+                                  "closed-loop observation")
         out = []
         if len(obs.imu_full):
             out += self.service.push("imu", obs.imu_full[:, 0], obs.imu_full[:, 1:])
         if len(obs.wheels):
-            if not np.array_equal(obs.wheels[:, 0], obs.currents[:, 0]):
-                raise DataFormatError("wheel and current samples at different times",
-                                      "closed-loop observation")
             values = np.column_stack([obs.wheels[:, 1:3] * self.wheel_radius_m,
                                       obs.currents[:, 1:3]])
             out += self.service.push("wheels", obs.wheels[:, 0], values)
