@@ -764,12 +764,12 @@ def plot_comparison(table: pd.DataFrame):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure     # not pyplot's: no figure left open per call
 
     table = table if "protocol" in table else table.assign(protocol="grouped")
     datasets = list(dict.fromkeys(zip(table["protocol"], table["dataset"])))
-    fig, axes = plt.subplots(1, len(datasets), figsize=(5 * len(datasets), 3.8),
-                             squeeze=False)
+    fig = Figure(figsize=(5 * len(datasets), 3.8))
+    axes = fig.subplots(1, len(datasets), squeeze=False)
     for ax, (protocol, ds) in zip(axes[0], datasets):
         sub = table[(table["dataset"] == ds) & (table["protocol"] == protocol)]
         hops = sub["train_hop_s"] if "train_hop_s" in sub else sub["window_s"]
@@ -875,7 +875,7 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
     ConfigError
         The table has no row at that history, or mixes protocols or training-window hops.
     """
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure     # not pyplot's: no figure left open per call
 
     _one_setting(table)
     sub = table[table["history"] == history]
@@ -890,10 +890,9 @@ def plot_grid(table: pd.DataFrame, history: int = 1):
     lowest = sub["accuracy_mean"].min()
     vmin = max(0.0, min(0.5, np.floor(10.0 * lowest) / 10.0)) if np.isfinite(lowest) else 0.5
     windows = sorted(set(sub["window_s"]))
-    fig, axes = plt.subplots(len(models), len(datasets),
-                             figsize=(1.1 * len(windows) * len(datasets) + 1.5,
-                                      0.55 * len(signals) * len(models) + 1.0),
-                             squeeze=False)
+    fig = Figure(figsize=(1.1 * len(windows) * len(datasets) + 1.5,
+                          0.55 * len(signals) * len(models) + 1.0))
+    axes = fig.subplots(len(models), len(datasets), squeeze=False)
     for i, model in enumerate(models):
         for j, ds in enumerate(datasets):
             ax = axes[i, j]

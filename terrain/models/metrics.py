@@ -212,11 +212,12 @@ def plot_confusion(cm: pd.DataFrame, title: str = ""):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure     # not pyplot's: no figure left open per call
 
     counts = cm.to_numpy()
     norm = counts / np.maximum(counts.sum(axis=1, keepdims=True), 1)
-    fig, ax = plt.subplots(figsize=(1.2 * len(cm) + 2, 1.1 * len(cm) + 1.5))
+    fig = Figure(figsize=(1.2 * len(cm) + 2, 1.1 * len(cm) + 1.5))
+    ax = fig.subplots()
     ax.imshow(norm, cmap="Blues", vmin=0, vmax=1)
     ax.set_xticks(range(len(cm.columns)), cm.columns, rotation=45, ha="right")
     ax.set_yticks(range(len(cm.index)), cm.index)

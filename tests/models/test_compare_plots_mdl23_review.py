@@ -62,3 +62,24 @@ def test_the_grids_colour_scale_reaches_its_lowest_cell(accuracies, clim):
     fig = plot_grid(_grid(accuracies))
     assert fig.axes[0].images[0].get_clim() == pytest.approx(clim)
     plt.close(fig)
+
+
+def test_the_model_figures_leave_no_pyplot_figure_open():
+    # aud24's left-alone: terrain cv / compare logged these figures without closing them,
+    # one pyplot figure left open per call in a process that runs them again and again
+    import matplotlib.pyplot as plt
+    import pandas as pd
+
+    from terrain.models.compare import plot_comparison, plot_grid
+    from terrain.models.metrics import plot_confusion
+
+    before = plt.get_fignums()
+    table = pd.DataFrame({"dataset": ["borealtc"] * 2, "model": ["svm"] * 2,
+                          "signals": ["all", "imu"], "window_s": [2.0, 2.0],
+                          "train_hop_s": [2.0, 2.0], "history": [1, 1],
+                          "accuracy_mean": [0.86, 0.83], "accuracy_std": [0.01, 0.02],
+                          "macro_f1_mean": [0.85, 0.82]})
+    cm = pd.DataFrame([[5, 1], [2, 7]], index=["ICE", "SNOW"], columns=["ICE", "SNOW"])
+    figures = [plot_confusion(cm, "t"), plot_comparison(table), plot_grid(table)]
+    assert plt.get_fignums() == before
+    assert all(len(f.axes) >= 1 for f in figures)
