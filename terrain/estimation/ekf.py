@@ -740,12 +740,14 @@ class ExtendedKalmanFilter:
                  h: Callable, H: Callable, Q: np.ndarray | Callable[[float], np.ndarray],
                  R: np.ndarray, *, residual: Residual | None = None, gate: Gate | None = None,
                  groups: Sequence[np.ndarray] | None = None) -> None:
-        self._x = as_vector(x0, "x0")
+        # copies: a float64 x0, P0, Q or R came back from the checks as the caller's own
+        # array, so the caller refilling its buffer (the next run's x0) changed this filter
+        self._x = as_vector(x0, "x0").copy()
         n = self._x.size
-        self._P = as_covariance(P0, n, "P0")
+        self._P = as_covariance(P0, n, "P0").copy()
         self._f, self._F, self._h, self._H = f, F, h, H
-        self._Q = Q if callable(Q) else as_covariance(Q, n, "Q")
-        R = np.asarray(R, dtype=float)
+        self._Q = Q if callable(Q) else as_covariance(Q, n, "Q").copy()
+        R = np.array(R, dtype=float)
         if R.ndim not in (1, 2):   # a scalar has no size m (R.shape[0] was a bare IndexError)
             raise ShapeError(f"R must have shape (m, m) or (m,), got {R.shape}")
         self._m = R.shape[0]

@@ -1,0 +1,76 @@
+"""State, aliasing and reuse of the estimation layer (review est23)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+from terrain.estimation.ekf import ExtendedKalmanFilter, correct, predict, update
+
+
+def _linear(n: int = 2):
+    A = np.array([[1.0, 0.1], [0.0, 1.0]])
+    f = (lambda x, dt: A @ x)
+    F = (lambda x, dt: A)
+    h = (lambda x: x[:1].copy())
+    H = (lambda x: np.array([[1.0, 0.0]]))
+    return f, F, h, H
+
+
+def test_filter_does_not_alias_the_callers_initial_arrays():
+    """Changing x0, P0, Q or R after construction must not change the filter."""
+    f, F, h, H = _linear()
+    x0 = np.array([1.0, 2.0])
+    P0 = np.eye(2)
+    Q = np.eye(2) * 0.01
+    R = np.array([0.5])
+    ekf = ExtendedKalmanFilter(x0, P0, f, F, h, H, Q, R)
+    ref = ExtendedKalmanFilter(x0.copy(), P0.copy(), f, F, h, H, Q.copy(), R.copy())
+    x0[:] = 99.0        # the caller reuses its buffers for the next filter
+    P0[:] = 7.0 * np.eye(2)
+    Q[:] = 3.0 * np.eye(2)
+    R[:] = 1e-6
+    np.testing.assert_array_equal(ekf.x, ref.x)
+    np.testing.assert_array_equal(ekf.P, ref.P)
+    for e in (ekf, ref):
+        e.predict(0.1)
+        e.update(np.array([1.5]))
+    np.testing.assert_array_equal(ekf.x, ref.x)
+    np.testing.assert_array_equal(ekf.P, ref.P)
+
+
+def test_filter_2d_R_not_aliased():
+    f, F, h, H = _linear()
+    R = np.array([[0.5]])
+    ekf = ExtendedKalmanFilter(np.zeros(2), np.eye(2), f, F, h, H, np.eye(2) * 0.01, R)
+    R[0, 0] = 1e-9
+    inn = ekf.update(np.array([1.0]))
+    assert inn.S[0, 0] == 1.0 + 0.5
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.floats(-10, 10), min_size=2, max_size=2),
+       st.floats(0.1, 5.0), st.floats(0.01, 2.0), st.floats(-5, 5))
+def test_pure_functions_leave_their_inputs_alone(x, p, r, z):
+    """predict / update / correct are pure: no input is written."""
+    f, F, h, H = _linear()
+    x = np.array(x)
+    P = np.array([[p, 0.1], [0.1, p]])
+    Q = np.eye(2) * 0.01
+    R = np.array([r])
+    zz = np.array([z])
+    keep = copy.deepcopy((x, P, Q, R, zz))
+    xp, Pp = predict(x, P, 0.1, f, F, Q)
+    xu, Pu, inn = update(xp, Pp, zz, h, H, R)
+    y = zz - h(x)
+    y_keep = y.copy()
+    Hm = H(x)
+    xc, Pc, _ = correct(x, P, y, Hm, R)
+    for a, b in zip((x, P, Q, R, zz), keep):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(y, y_keep)
+    for out in (xp, Pp, xu, Pu, xc, Pc):
+        for inp in (x, P, Q, R, zz, y):
+            assert not np.shares_memory(out, inp)
