@@ -286,7 +286,7 @@ def run_adaptive_observer(t_s: np.ndarray, pose: np.ndarray, v_right_m_s: np.nda
             v_g, w_g = body_rates(b * el, a * er, 2.0 * d, 1.0)     # eq. 5
             xh, yh, th = _dead_reckon(xh, yh, th, v_g, w_g, h - h_c,
                                       math.ceil((h - h_c) / h_nom), use_pos)
-    return ObserverResult(t_s=t, pose_hat=pose_hat, eta=eta, error=err)
+    return ObserverResult(t_s=t.copy(), pose_hat=pose_hat, eta=eta, error=err)
 
 
 def eta_from_truth(v_body_m_s: np.ndarray, yaw_rate_rad_s: np.ndarray, v_right_m_s: np.ndarray,

@@ -562,7 +562,9 @@ def run_filter(model: StateSpaceModel, t_grid: np.ndarray,
         meta["step_bounds_active"] = int(loop.bound_active.sum())
     if bounds is not None:
         meta["state_bounds_clipped"] = int(loop.clipped.sum())
-    return EKFResult(t_s=t_grid, x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
+    # (a copy: t_grid is the caller's own array, and a result's times shifted in place moved
+    # the grid the caller filters the next run on)
+    return EKFResult(t_s=t_grid.copy(), x=loop.x, P_diag=loop.P_diag, P=loop.P, y=loop.y,
                      S_diag=loop.S_diag, accepted=accepted, nis=loop.nis, dof=loop.dof,
                      state_names=tuple(model.state_names),
                      measurement_names=tuple(model.measurement_names),

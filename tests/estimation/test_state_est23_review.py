@@ -74,3 +74,59 @@ def test_pure_functions_leave_their_inputs_alone(x, p, r, z):
     for out in (xp, Pp, xu, Pu, xc, Pc):
         for inp in (x, P, Q, R, zz, y):
             assert not np.shares_memory(out, inp)
+
+
+def _skid_steer_samples(n: int = 60):
+    from terrain.estimation.runner import SensorSamples
+    t = np.arange(n) * 0.02
+    wheels = SensorSamples(t, np.column_stack([np.full(n, 0.5), np.full(n, 0.6)]))
+    gyro = SensorSamples(t, np.full((n, 1), 0.1))
+    return t, {"wheels": wheels, "gyro": gyro}
+
+
+def test_run_filter_result_does_not_alias_the_grid_or_x0():
+    """Shifting a result's times in place (to absolute time) must not move the grid that
+    the next run is filtered on."""
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+    model = SkidSteerModel(SkidSteerSettings())
+    t, samples = _skid_steer_samples()
+    grid = t.copy()
+    x0 = np.asarray(model.x0, dtype=float).copy()
+    keep = (grid.copy(), x0.copy())
+    for engine in ("numpy", "auto"):
+        res = run_filter(model, grid, samples, x0=x0, engine=engine)
+        assert not np.shares_memory(res.t_s, grid)
+        res.t_s += 100.0
+        np.testing.assert_array_equal(grid, keep[0])
+        np.testing.assert_array_equal(x0, keep[1])
+    again = run_filter(model, grid, samples, x0=x0, engine="numpy")
+    first = run_filter(model, keep[0], samples, x0=keep[1], engine="numpy")
+    np.testing.assert_array_equal(again.x, first.x)
+
+
+def test_run_filter_leaves_the_samples_alone():
+    from terrain.estimation.runner import run_filter
+    from terrain.estimation.skid_steer import SkidSteerModel, SkidSteerSettings
+    t, samples = _skid_steer_samples()
+    samples["wheels"].values[5, 0] = np.nan
+    keep = {k: (v.t_s.copy(), v.values.copy()) for k, v in samples.items()}
+    res = run_filter(SkidSteerModel(SkidSteerSettings()), t, samples, engine="numpy")
+    for k, (ts, vs) in keep.items():
+        np.testing.assert_array_equal(samples[k].t_s, ts)
+        np.testing.assert_array_equal(samples[k].values, vs)
+        assert not np.shares_memory(res.t_s, samples[k].t_s)
+
+
+def test_observer_result_does_not_alias_the_callers_times():
+    from terrain.estimation.observer import run_adaptive_observer
+    t = np.arange(50) * 0.1
+    pose = np.column_stack([0.5 * t, np.zeros_like(t), np.zeros_like(t)])
+    v = np.full(t.size, 0.5)
+    keep = copy.deepcopy((t, pose, v))
+    res = run_adaptive_observer(t, pose, v, v.copy())
+    assert not np.shares_memory(res.t_s, t)
+    res.t_s[:] = 0.0
+    np.testing.assert_array_equal(t, keep[0])
+    np.testing.assert_array_equal(pose, keep[1])
+    np.testing.assert_array_equal(v, keep[2])
