@@ -122,6 +122,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         Returns
         -------
         SlipRegressor
+            ``self``; a fit that raises leaves a fitted model as it was before the call.
 
         Raises
         ------
@@ -142,6 +143,18 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             not learned, :meth:`predict` gives their median (1 without any) on every window;
             or too few runs in ``groups`` for the calibration folds (no std).
         """
+        # a fit that fails (scikit-learn refusing an empty table, a calibration fold) leaves
+        # the model as it was: it was half refitted, n_features_in_ new and its trees old
+        before = dict(vars(self))
+        try:
+            return self._fit(X, y, groups)
+        except BaseException:
+            vars(self).clear()
+            vars(self).update(before)
+            raise
+
+    def _fit(self, X, y, groups) -> "SlipRegressor":
+        """The body of :meth:`fit` (which restores the model when this raises)."""
         # (NaN made the variance target NaN, 0 made it -inf at a zero residual: scikit-learn's
         # bare errors about a y that was fine; 2.5 folds failed after the four fits)
         config_positive("SlipRegressor", std_floor=self.std_floor)
@@ -189,7 +202,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                           f"min_samples_leaf); predict gives the constant chi "
                           f"{self.chi_default_:.4g} ("
                           f"{'their median' if turning.any() else 'no turning window'})",
-                          DataWarning, stacklevel=2)
+                          DataWarning, stacklevel=3)
         self.lateral_model_ = self._tree().fit(X, y[:, 3])
         self.packed_trees_ = pack_trees(self._estimators(), self.n_features_in_)
         self.std_model_, self.std_scale_, self.calibration_ = None, float("nan"), {}
@@ -201,7 +214,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             else:   # the model has no std: said, not left to a NaN downstream
                 warnings.warn(f"slip model std not calibrated: {n_groups} training run(s) "
                               f"for {self.calibration_folds} calibration folds; predict_std "
-                              f"gives NaN (train on more runs)", DataWarning, stacklevel=2)
+                              f"gives NaN (train on more runs)", DataWarning, stacklevel=3)
         return self
 
     def _std_tree(self) -> HistGradientBoostingRegressor:
