@@ -161,6 +161,8 @@ class AgriMaRoEKFSettings:
                 raise ConfigError(f"{label} must be > 0 (R positive definite), got {values}")
             if (v < 0).any():
                 raise ConfigError(f"{label} must be >= 0, got {values}")
+            if not isinstance(values, tuple):   # the caller's array or list, frozen
+                object.__setattr__(self, label, tuple(v.tolist()))
         if self.q_per not in ("step", "second"):
             raise ConfigError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
         if self.coriolis not in CORIOLIS_CONVENTIONS:

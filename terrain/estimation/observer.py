@@ -88,6 +88,8 @@ class AdaptiveObserverSettings:
             if np.ndim(values) != 1 or len(values) != size:
                 raise ConfigError(f"{owner}.{name} needs {size} values, got {values!r}")
             config_numbers(owner, **indexed(name, values))
+            if not isinstance(values, tuple):   # the caller's array or list, frozen
+                object.__setattr__(self, name, tuple(float(v) for v in values))
         for name in ("l_gains", "lambda_gains"):
             config_positive(owner, **indexed(name, getattr(self, name)))
         lo, hi = self.eta_bounds

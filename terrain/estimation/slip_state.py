@@ -141,6 +141,8 @@ class SlipStateModel(KernelModel):
         for label, values in (("p0_diag", self.p0_diag), ("q_diag", self.q_diag)):
             if len(values) != 14 or not all(0.0 <= float(v) < np.inf for v in values):
                 raise ConfigError(f"{label} needs 14 finite values >= 0, got {values}")
+            if not isinstance(values, tuple):   # the caller's array or list, frozen
+                object.__setattr__(self, label, tuple(float(v) for v in values))
         if self.q_per not in ("step", "second"):
             raise ConfigError(f"q_per must be 'step' or 'second', got {self.q_per!r}")
         super().__post_init__()

@@ -130,3 +130,38 @@ def test_observer_result_does_not_alias_the_callers_times():
     np.testing.assert_array_equal(t, keep[0])
     np.testing.assert_array_equal(pose, keep[1])
     np.testing.assert_array_equal(v, keep[2])
+
+
+def _frozen_after_mutation(make, field: str, values: np.ndarray, bad: float):
+    """Build with ``values`` as a NumPy array, then overwrite the caller's array: the
+    validated settings must not follow it."""
+    arr = np.array(values, dtype=float)
+    obj = make(arr)
+    arr[:] = bad
+    held = getattr(obj, field)
+    assert not isinstance(held, np.ndarray)
+    np.testing.assert_array_equal(np.asarray(held, dtype=float), values)
+    assert obj == make(np.array(values, dtype=float))
+    return obj
+
+
+def test_settings_keep_their_own_copy_of_array_fields():
+    """A frozen settings object built from the caller's arrays kept them: refilling the
+    array afterwards changed a validated, 'frozen' noise (to negative variances here)."""
+    from terrain.estimation.agrimaro import (THESIS_P0, THESIS_Q, THESIS_R, AgriMaRoEKFSettings,
+                                             AgriMaRoModel)
+    from terrain.estimation.observer import AdaptiveObserverSettings
+    from terrain.estimation.slip_state import THESIS_Q_CH4, SlipStateModel
+    for field, values in (("q_diag", THESIS_Q), ("p0_diag", THESIS_P0), ("r_diag", THESIS_R)):
+        s = _frozen_after_mutation(lambda a: AgriMaRoEKFSettings(**{field: a}), field,
+                                   np.array(values), -1.0)
+    model = AgriMaRoModel(settings=s)
+    assert (np.diag(model.Q(0.01)) >= 0).all()
+    for field in ("q_diag", "p0_diag"):
+        m = _frozen_after_mutation(lambda a: SlipStateModel(**{field: a}), field,
+                                   np.array(THESIS_Q_CH4), -1.0)
+    assert (np.diag(m.Q(0.01)) >= 0).all()
+    for field, values in (("l_gains", (2.0, 2.0, 10.0)), ("lambda_gains", (50.0, 50.0)),
+                          ("eta0", (1.0, 1.0)), ("eta_bounds", (0.02, 2.0))):
+        _frozen_after_mutation(lambda a: AdaptiveObserverSettings(**{field: a}), field,
+                               np.array(values), -5.0)
