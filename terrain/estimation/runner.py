@@ -119,8 +119,10 @@ class SensorSamples:
             after = f" after {t[bad - 1]:.6g} s" if bad and np.isfinite(t[bad]) else ""
             raise TimeStepError(f"sensor timestamps must be finite and strictly increasing: "
                                 f"sample {bad} at {t[bad]:.6g} s{after}")
-        object.__setattr__(self, "t_s", t)
-        object.__setattr__(self, "values", v)
+        # copies: checked once here, the caller's own arrays could change after the check
+        # (a reused buffer gave the filter samples out of order)
+        object.__setattr__(self, "t_s", t.copy())
+        object.__setattr__(self, "values", v.copy())
 
 
 def check_sensor_names(argument: str, names: Iterable[str], sensors: Iterable[str]) -> None:

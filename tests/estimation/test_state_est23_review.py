@@ -165,3 +165,17 @@ def test_settings_keep_their_own_copy_of_array_fields():
                           ("eta0", (1.0, 1.0)), ("eta_bounds", (0.02, 2.0))):
         _frozen_after_mutation(lambda a: AdaptiveObserverSettings(**{field: a}), field,
                                np.array(values), -5.0)
+
+
+def test_sensor_samples_keep_their_own_checked_arrays():
+    """SensorSamples checks its times once; it kept the caller's arrays, so a caller reusing
+    its buffer (here writing an earlier time) gave a filter samples out of order unchecked."""
+    from terrain.estimation.runner import SensorSamples
+    t = np.arange(5) * 0.1
+    v = np.ones((5, 2))
+    s = SensorSamples(t, v)
+    assert not np.shares_memory(s.t_s, t) and not np.shares_memory(s.values, v)
+    t[3] = 0.0
+    v[:] = np.nan
+    np.testing.assert_array_equal(s.t_s, np.arange(5) * 0.1)
+    np.testing.assert_array_equal(s.values, np.ones((5, 2)))
