@@ -58,6 +58,12 @@ class SlipDataSpec:
     vehicle: str = "husky"
 
     def __post_init__(self) -> None:
+        for axis in ("terrains", "scenarios", "seeds"):     # the caller's list, frozen
+            values = getattr(self, axis)
+            # (a list appended to after the checks gave runs never checked)
+            if isinstance(values, list) or hasattr(values, "tolist"):   # (an array too)
+                object.__setattr__(self, axis, tuple(
+                    values.tolist() if hasattr(values, "tolist") else values))
         bad = [t for t in self.terrains if t not in TERRAIN_NAMES]
         bad += [s for s in self.scenarios if s not in SCENARIO_NAMES]
         if bad:
