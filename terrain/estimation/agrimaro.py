@@ -180,6 +180,10 @@ class AgriMaRoEKFSettings:
                     or not 0.0 <= float(alpha) < 1.0:
                 raise ConfigError(f"bad EMA entry ({sensor!r}, {alpha}); sensors "
                                   f"{list(SENSOR_ROWS)}, alpha in [0, 1)")
+        if not (isinstance(self.ema_alpha, tuple)
+                and all(isinstance(e, tuple) for e in self.ema_alpha)):
+            # the caller's lists, frozen (an alpha written after the checks reached the EMA)
+            object.__setattr__(self, "ema_alpha", tuple(tuple(e) for e in self.ema_alpha))
         repeated = duplicated([sensor for sensor, _ in self.ema_alpha])
         if repeated:    # (the last alpha of a sensor was used without a word)
             raise ConfigError(f"{owner}.ema_alpha gives sensor(s) {repeated} more than once "

@@ -179,3 +179,16 @@ def test_sensor_samples_keep_their_own_checked_arrays():
     v[:] = np.nan
     np.testing.assert_array_equal(s.t_s, np.arange(5) * 0.1)
     np.testing.assert_array_equal(s.values, np.ones((5, 2)))
+
+
+def test_agrimaro_settings_keep_their_own_ema_pairs():
+    """ema_alpha given as a list of [sensor, alpha] lists stayed the caller's: an alpha
+    written afterwards (1.5, refused by the check) reached the EMA filter."""
+    from terrain.estimation.agrimaro import AgriMaRoEKFSettings
+    pairs = [["cam", 0.2], ["imu", 0.1]]
+    s = AgriMaRoEKFSettings(ema_alpha=pairs)
+    pairs[0][1] = 1.5
+    pairs.append(["steer", 0.9])
+    assert s.ema_alpha == (("cam", 0.2), ("imu", 0.1))
+    assert s.alpha("cam") == 0.2 and s.alpha("steer") == 0.0
+    assert s == AgriMaRoEKFSettings(ema_alpha=(("cam", 0.2), ("imu", 0.1)))
