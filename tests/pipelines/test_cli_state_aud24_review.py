@@ -25,6 +25,11 @@ def test_a_command_run_in_process_leaves_the_process_as_it_was(monkeypatch, tmp_
 
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    # MLflow as in a fresh process (an earlier test of the suite may have set its
+    # process-wide URI, which the entry point then sets, and MLflow exports, by design:
+    # terrain.tracking.activate_store)
+    from mlflow.tracking._tracking_service import utils as mlflow_tracking
+    monkeypatch.setattr(mlflow_tracking, "_tracking_uri", None)
     seen = []
 
     def command(args):
