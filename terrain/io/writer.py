@@ -405,6 +405,11 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         one), or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
         column and ``None`` among numbers included: the readers interpolate an isolated one
         and refuse one at the file's edge or in a burst); nothing is written then.
+    OSError
+        A file could not be written (a full disk, no permission); as on any failure while
+        writing (``KeyboardInterrupt`` included), no file of the run is left: each is
+        written under a temporary name (``.<file>.writing``) and renamed into place,
+        ``pro_XX.csv`` (by which the readers find a run) last.
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
@@ -452,21 +457,35 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
     folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
-    paths: dict[str, Path] = {}
-    for kind, frame in frames.items():
-        path = folder / f"{kind}_{idx:02d}.csv"
-        fmt = float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
-        frame.to_csv(path, index=False, float_format=fmt)
-        paths[kind] = path
+    paths = {kind: folder / f"{kind}_{idx:02d}.csv" for kind in frames}
+    paths["meta"] = folder / f"meta_{idx:02d}.json"
     meta = dict(run.meta)
     # read back as the run's vehicle: not the default, nor a stale "vehicle" of its meta
     meta["vehicle"] = run.vehicle
     meta["index"] = f"{idx:02d}"
-    meta["files"] = {k: p.name for k, p in paths.items()}
-    path = folder / f"meta_{idx:02d}.json"
-    # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"), NaN
-    # and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
-    path.write_text(json.dumps(json_ready(meta, None), indent=2, default=_json_default,
-                               allow_nan=False))
-    paths["meta"] = path
+    meta["files"] = {k: p.name for k, p in paths.items() if k != "meta"}
+    # every file goes to a temporary name that the readers skip, then into place, pro_XX.csv
+    # (by which the readers find a run) last: imu_00.csv and pro_00.csv left by a failure
+    # at truth_00.csv or meta_00.json (a full disk, an interrupt) were read as a complete
+    # measured run of the default vehicle
+    staged = {kind: path.with_name(f".{path.name}.writing") for kind, path in paths.items()}
+    placed: list[Path] = []
+    try:
+        for kind, frame in frames.items():
+            fmt = float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
+            frame.to_csv(staged[kind], index=False, float_format=fmt)
+        # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"),
+        # NaN and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
+        staged["meta"].write_text(json.dumps(json_ready(meta, None), indent=2,
+                                             default=_json_default, allow_nan=False))
+        for kind in sorted(paths, key=lambda k: k == "pro"):
+            staged[kind].replace(paths[kind])
+            placed.append(paths[kind])
+    except BaseException:
+        for path in placed:     # new files (the index was free): the run's, none older
+            path.unlink(missing_ok=True)
+        raise
+    finally:
+        for tmp in staged.values():
+            tmp.unlink(missing_ok=True)
     return paths
