@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import time
+from pathlib import Path
 from types import MappingProxyType
 from typing import Mapping
 
@@ -92,6 +93,9 @@ def main(args: argparse.Namespace) -> int:
     ConfigError
         With ``--out``, a figure file beside it (``<stem>_<name>.png``) cannot be written
         (checked before any table is computed, as ``--out`` itself is).
+    OSError
+        With ``--out``, the Markdown or a figure could not be written (a full disk): as on
+        any failure of a figure, the files of an earlier run are left as they were.
     """
     if args.out is not None:
         from pipelines.validation.figures import figure_paths
@@ -106,9 +110,29 @@ def main(args: argparse.Namespace) -> int:
         print(f"{block}\n({time.perf_counter() - start:.1f} s)\n", flush=True)
         text.append(block)
     if args.out is not None:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        args.out.write_text("\n".join(text))
-        from pipelines.validation.figures import figures   # matplotlib: only with --out
-        for path in figures(args.report, args.out, args.quick):
+        for path in _write_report(args.report, args.out, "\n".join(text), args.quick):
             print(f"figure: {path}", flush=True)
     return 0
+
+
+def _write_report(report: str, out: Path, text: str, quick: bool) -> list[Path]:
+    """Write the Markdown ``text`` to ``out`` and draw the report's figures beside it, all
+    under temporary names (``.<stem>.writing<suffix>``, its figures named after it), renamed
+    into place once every one is written: a failure (a figure that cannot be drawn, a full
+    disk, an interrupt) leaves the files of an earlier run as they were, not new tables
+    beside its figure or a cut file, and no temporary file. Returns the figure files."""
+    from pipelines.validation.figures import figure_paths, figures  # matplotlib: with --out
+    out.parent.mkdir(parents=True, exist_ok=True)
+    stage = out.with_name(f".{out.stem}.writing{out.suffix}")
+    final = figure_paths(report, out)
+    staged = {stage: out, **{figure_paths(report, stage)[name]: path
+                             for name, path in final.items()}}
+    try:
+        stage.write_text(text)
+        figures(report, stage, quick)
+        for tmp, path in staged.items():
+            tmp.replace(path)
+    finally:
+        for tmp in staged:
+            tmp.unlink(missing_ok=True)
+    return list(final.values())
