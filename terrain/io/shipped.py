@@ -132,9 +132,10 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         that does not parse (its line and column named) or is not a JSON object whose
         ``datasets``, if present, is an object. The manifest is checked before anything
         is written, and the Parquet files are written under temporary names and swapped in
-        with the manifest, so a failed conversion leaves ``data_dir`` as it was; once they
-        are, a stream file of an earlier conversion that this one does not write (no run
-        has that stream now) is removed.
+        with the manifest, a stream file of an earlier conversion that this one does not
+        write (no run has that stream now) removed with them, the files replaced set aside
+        until all are in place: a failed conversion (a rename refused or interrupted
+        included) leaves ``data_dir`` as it was.
 
     Warns
     -----
@@ -240,16 +241,41 @@ def convert_dataset(src: str | Path, dataset: str, data_dir: str | Path) -> dict
         tmp = manifest_path.with_name(f".{manifest_path.name}.converting")
         pending[tmp] = manifest_path
         tmp.write_text(json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-        for tmp, path in pending.items():
-            os.replace(tmp, path)
+        # a stream file of an earlier conversion that this one does not write (its runs have
+        # no IMU file now): left, unlisted, it made every read of the dataset fail
+        stale = [out / f for f in sorted(set(STREAM_FILES.values()) - set(tables))]
+        _swap_in(pending, stale)
     finally:
         for tmp in pending:               # left only when the conversion failed
             tmp.unlink(missing_ok=True)
-    # a stream file of an earlier conversion that this one does not write (its runs have no
-    # IMU file now): left, unlisted, it made every read of the dataset fail
-    for file_name in set(STREAM_FILES.values()) - set(tables):
-        (out / file_name).unlink(missing_ok=True)
     return entry
+
+
+def _swap_in(pending: Mapping[Path, Path], stale: list[Path]) -> None:
+    """Rename each temporary file of ``pending`` onto the file it replaces and remove the
+    ``stale`` files, all or none: the files replaced or removed are first set aside
+    (``.<name>.previous``) and put back when a rename fails or is interrupted (new Parquet
+    files swapped in under the earlier manifest, whose checksums then refused every read
+    of the dataset, were left otherwise); once all are in place they are deleted."""
+    aside: dict[Path, Path] = {}      # file replaced or removed -> its earlier copy
+    placed: list[Path] = []
+    try:
+        for path in [*pending.values(), *stale]:
+            if path.exists():
+                copy = path.with_name(f".{path.name}.previous")
+                os.replace(path, copy)
+                aside[path] = copy
+        for tmp, path in pending.items():
+            os.replace(tmp, path)
+            placed.append(path)
+    except BaseException:
+        for path in placed:
+            path.unlink(missing_ok=True)
+        for path, copy in aside.items():
+            os.replace(copy, path)
+        raise
+    for copy in aside.values():
+        copy.unlink(missing_ok=True)
 
 
 def _manifest_to_update(path: Path) -> dict:
