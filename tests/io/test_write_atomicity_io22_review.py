@@ -80,3 +80,21 @@ def test_a_successful_write_leaves_no_temporary_file(tmp_path):
     paths = write_run(_run(), tmp_path, 4)
     assert sorted(paths) == ["imu", "meta", "pro", "truth"]
     assert _names(tmp_path / "SNOW") == sorted(p.name for p in paths.values())
+
+
+@pytest.mark.parametrize("at", [1, 2, 3, 4])
+def test_a_rename_failing_leaves_no_file(tmp_path, monkeypatch, at):
+    # the files renamed into place before a refused (or interrupted) rename are removed too
+    import os
+
+    replace, count = os.replace, {"n": 0}
+
+    def failing(src, dst, *args, **kwargs):
+        count["n"] += 1
+        if count["n"] == at:
+            raise KeyboardInterrupt
+        return replace(src, dst, *args, **kwargs)
+    monkeypatch.setattr(os, "replace", failing)
+    with pytest.raises(KeyboardInterrupt):
+        write_run(_run(), tmp_path, 0)
+    assert _names(tmp_path / "SNOW") == []
