@@ -16,7 +16,9 @@ answer is one decision per window. Only loopback addresses are served.
 
 The port is bound before anything is announced (a port in use is a one-line error, exit
 2; ``--port 0`` takes a free port and announces it). SIGTERM and SIGINT stop the server
-gracefully and remove the temporary wrapped model.
+gracefully and remove the temporary wrapped model (exit 0); one that comes before the server
+serves (while the model is wrapped or loaded) exits 130 (SIGINT) or 143 (SIGTERM), saying
+whether ``--served-out`` was written.
 """
 
 from __future__ import annotations
@@ -341,7 +343,9 @@ def main(args: argparse.Namespace) -> int:
     -------
     int
         Exit status 0 (also after SIGTERM / SIGINT: the server stopped gracefully and the
-        temporary wrapped model was removed).
+        temporary wrapped model was removed); 130 (SIGINT) or 143 (SIGTERM) when the signal
+        came before the server served (the message says whether ``--served-out`` was
+        written: a wrapping cut short leaves nothing there).
 
     Raises
     ------
@@ -369,7 +373,7 @@ def main(args: argparse.Namespace) -> int:
     if wrapped:
         check_no_wrap_options(args.model, args)
     previous = {sig: signal.signal(sig, _stop) for sig in (signal.SIGTERM, signal.SIGINT)}
-    sock = None
+    sock, serving, written = None, False, False
     try:
         sock = bind_port(args.host, args.port)
         port = sock.getsockname()[1]
@@ -377,6 +381,7 @@ def main(args: argparse.Namespace) -> int:
             served = args.model
             if not wrapped:
                 served = wrap_model(args.model, args.served_out or Path(tmp) / "served", args)
+                written = True
                 print(f"wrapped {args.model} into the streaming model {served}")
             app = build_app(served, args.max_body_bytes,
                             getattr(args, "max_in_flight", MAX_IN_FLIGHT))
@@ -391,6 +396,7 @@ def main(args: argparse.Namespace) -> int:
             config = uvicorn.Config(app, host=args.host, port=port, log_level="warning",
                                     timeout_graceful_shutdown=5, http=protocol,
                                     backlog=backlog)
+            serving = True
             try:
                 # twice the requests admitted: a request MLflow answered 504 (its timeout)
                 # frees its slot while its prediction still runs in its thread
@@ -409,7 +415,14 @@ def main(args: argparse.Namespace) -> int:
                           f"beyond --max-connections {protocol.limit} (none idle for "
                           f"{protocol.min_idle_s:g} s)", flush=True)
     except _Stopped as stop:
-        print(f"terrain serve: stopped ({stop})", flush=True)
+        if serving:
+            print(f"terrain serve: stopped ({stop})", flush=True)
+        else:   # nothing served: not a success, nor --served-out if cut short
+            out = getattr(args, "served_out", None)
+            kept = "" if out is None or wrapped else \
+                f"; --served-out {out} {'written' if written else 'not written'}"
+            print(f"terrain serve: stopped ({stop}) before serving{kept}", flush=True)
+            return 128 + signal.Signals[str(stop)].value
     finally:
         for sig, handler in previous.items():
             signal.signal(sig, handler)

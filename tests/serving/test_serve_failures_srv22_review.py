@@ -1,0 +1,86 @@
+"""What a failed or interrupted ``terrain serve`` leaves behind (srv22 review): the exit
+status, the ``--served-out`` folder, the bound socket, the signal handlers."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import socket
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sklearn.dummy import DummyClassifier
+
+from features.windows import WindowConfig
+from pipelines import serve
+from terrain.errors import ConfigError
+from terrain.run import WHEEL_CHANNELS
+from terrain.serving.pyfunc import save_model
+
+
+@pytest.fixture(scope="module")
+def train_dir(tmp_path_factory) -> Path:
+    """A tiny ``terrain train --model-out`` directory (a prior classifier on wheel windows)."""
+    root = tmp_path_factory.mktemp("serve_failures")
+    clf = DummyClassifier(strategy="prior").fit(np.zeros((4, 4, 40)), ["A", "B", "A", "B"])
+    return save_model(root / "train", clf, list(WHEEL_CHANNELS),
+                      WindowConfig(window_s=2.0, rate_hz=20.0), ["A", "B"], {"dataset": "t"},
+                      progress=False)
+
+
+def _args(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    serve.add_arguments(parser)
+    return parser.parse_args(list(argv))
+
+
+def _interrupt_while_wrapping(monkeypatch, signum: int) -> None:
+    """The signal arrives while the model is being read for wrapping (handlers in force)."""
+    real = serve.load_stream_model
+
+    def read_then_signal(path):
+        model = real(path)
+        os.kill(os.getpid(), signum)
+        return model
+    monkeypatch.setattr(serve, "load_stream_model", read_then_signal)
+
+
+@pytest.mark.parametrize("signum, status", [(signal.SIGINT, 130), (signal.SIGTERM, 143)])
+def test_a_signal_before_serving_is_not_a_success(train_dir, tmp_path, monkeypatch, capsys,
+                                                  signum, status):
+    # stopped while wrapping, nothing served and --served-out not written, the command said
+    # "stopped" and exited 0, as after serving and stopping gracefully: a script or service
+    # manager took the wrapped model it asked for as written
+    out = tmp_path / "kept" / "served"
+    _interrupt_while_wrapping(monkeypatch, signum)
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResourceWarning)
+        got = serve.main(_args("--model", str(train_dir), "--port", "0",
+                               "--served-out", str(out)))
+    printed = capsys.readouterr().out
+    assert got == status, printed
+    assert not out.exists() and not list(out.parent.glob(".served.partial-*"))
+    assert "before serving" in printed and f"--served-out {out} not written" in printed
+    assert {s: signal.getsignal(s) for s in before} == before
+
+
+def test_a_failed_start_closes_its_socket_and_frees_the_port(train_dir, monkeypatch):
+    # the model fails to load in MLflow after the port was bound: the port is free again
+    probe = socket.socket()
+    probe.bind(("127.0.0.1", 0))
+    port = probe.getsockname()[1]
+    probe.close()
+
+    def broken(*_, **__):
+        raise ConfigError("broken served model")
+    monkeypatch.setattr(serve, "build_app", broken)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", ResourceWarning)
+        with pytest.raises(ConfigError, match="broken served model"):
+            serve.main(_args("--model", str(train_dir), "--port", str(port)))
+    again = serve.bind_port("127.0.0.1", port)   # refused (in use) if it were still bound
+    again.close()
