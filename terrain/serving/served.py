@@ -287,27 +287,28 @@ class ServedStreamModel(PythonModel):
         s = {"max_decisions": MAX_DECISIONS, "vehicle": DEFAULT_VEHICLE,
              **dict(context.model_config)}
         check_settings(s)
-        self.settings = s
+        # built whole before any is kept: a load that fails (a broken pipeline file) leaves
+        # the model as it was, never new settings over the old classifier
         pipeline = load_pipeline(context.artifacts["pipeline"])
-        self.model = StreamModel(pipeline, tuple(s["channels"]),
-                                 WindowConfig(window_s=float(s["window_s"]),
-                                              rate_hz=float(s["rate_hz"])),
-                                 tuple(s["classes"]),
-                                 # the service's per-window wheel_speed_units rule needs
-                                 # the vehicle (the run-level rules get it in decide)
-                                 metadata={"vehicle": str(s["vehicle"]),
-                                           # the first steps of a stream are judged
-                                           # against its training step
-                                           "channel_steps_s": s.get("channel_steps_s")})
-        self.targets = TableTargets(self.model.classes,
-                                    DesiredSlipConfig(min_confidence=s["min_confidence"]))
+        model = StreamModel(pipeline, tuple(s["channels"]),
+                            WindowConfig(window_s=float(s["window_s"]),
+                                         rate_hz=float(s["rate_hz"])),
+                            tuple(s["classes"]),
+                            # the service's per-window wheel_speed_units rule needs
+                            # the vehicle (the run-level rules get it in decide)
+                            metadata={"vehicle": str(s["vehicle"]),
+                                      # the first steps of a stream are judged
+                                      # against its training step
+                                      "channel_steps_s": s.get("channel_steps_s")})
+        targets = TableTargets(model.classes,
+                               DesiredSlipConfig(min_confidence=s["min_confidence"]))
         # a request makes at most max_decisions decisions, every one in the answer (a
         # dropped one with its reason): the service's skipping of long silent stretches
         # must never apply inside a request
-        self.config = StreamConfig(hop_s=s["hop_s"], min_confidence=s["min_confidence"],
-                                   smoothing=smoothing_of(s),
-                                   max_backlog_s=(int(s["max_decisions"]) + 1)
-                                   * float(s["hop_s"]))
+        config = StreamConfig(hop_s=s["hop_s"], min_confidence=s["min_confidence"],
+                              smoothing=smoothing_of(s),
+                              max_backlog_s=(int(s["max_decisions"]) + 1) * float(s["hop_s"]))
+        self.settings, self.model, self.targets, self.config = s, model, targets, config
 
     def decide(self, frame: pd.DataFrame) -> pd.DataFrame:
         """Decisions for one request (typed project errors propagate).

@@ -25,9 +25,10 @@ from terrain.serving.pyfunc import save_model
 def train_dir(tmp_path_factory) -> Path:
     """A tiny ``terrain train --model-out`` directory (a prior classifier on wheel windows)."""
     root = tmp_path_factory.mktemp("serve_failures")
-    clf = DummyClassifier(strategy="prior").fit(np.zeros((4, 4, 40)), ["A", "B", "A", "B"])
+    classes = ["ASPHALT", "GRASS"]
+    clf = DummyClassifier(strategy="prior").fit(np.zeros((4, 4, 40)), classes * 2)
     return save_model(root / "train", clf, list(WHEEL_CHANNELS),
-                      WindowConfig(window_s=2.0, rate_hz=20.0), ["A", "B"], {"dataset": "t"},
+                      WindowConfig(window_s=2.0, rate_hz=20.0), classes, {"dataset": "t"},
                       progress=False)
 
 
@@ -84,3 +85,27 @@ def test_a_failed_start_closes_its_socket_and_frees_the_port(train_dir, monkeypa
             serve.main(_args("--model", str(train_dir), "--port", str(port)))
     again = serve.bind_port("127.0.0.1", port)   # refused (in use) if it were still bound
     again.close()
+
+
+def test_a_failed_reload_leaves_the_served_model_as_it_was(train_dir, tmp_path):
+    # load_context wrote the new settings before reading the pipeline: a reload whose
+    # pipeline file was broken left the old classifier under the new settings (here a
+    # max_rows of 3, which then refused every request the loaded model had answered)
+    from types import SimpleNamespace
+
+    from terrain.serving.model import PIPELINE_ARTIFACT, load_stream_model
+    from terrain.serving.served import ServedStreamModel, served_settings
+
+    model = load_stream_model(train_dir)
+    served = ServedStreamModel()
+    good = served_settings(model)
+    served.load_context(SimpleNamespace(model_config=good, artifacts={
+        "pipeline": str(train_dir / PIPELINE_ARTIFACT)}))
+    before = (dict(served.settings), served.model, served.targets, served.config)
+    broken = tmp_path / "pipeline.joblib"
+    broken.write_bytes(b"not a joblib file")
+    with pytest.raises(ConfigError, match="cannot be read as a fitted model"):
+        served.load_context(SimpleNamespace(model_config={**good, "max_rows": 3},
+                                            artifacts={"pipeline": str(broken)}))
+    after = (served.settings, served.model, served.targets, served.config)
+    assert after == before
