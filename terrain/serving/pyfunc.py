@@ -168,17 +168,19 @@ class TerrainModel(PythonModel):
             classifier (:func:`terrain.serving.model.load_pipeline`, which names the file).
         """
         config = getattr(context, "model_config", None) or {}
+        settings = (self.channels, self.window, self.classes, self.track_m)
         if config:
             missing = [k for k in ("channels", "window", "classes") if k not in config]
             if missing:
                 raise ConfigError(f"model config lacks {missing} (flavor python_function of "
                                   "the model's MLmodel)")
-            self.channels = list(config["channels"])
-            self.window = dict(config["window"])
-            self.classes = list(config["classes"])
             # models saved before the setting existed derived their channels with the Husky's
-            self.track_m = float(config.get("track_m", HUSKY_TRACK_M))
-        self._pipeline = load_pipeline(context.artifacts["pipeline"])
+            settings = (list(config["channels"]), dict(config["window"]),
+                        list(config["classes"]), float(config.get("track_m", HUSKY_TRACK_M)))
+        # kept together once the pipeline is read: a failed load leaves the model as it was
+        pipeline = load_pipeline(context.artifacts["pipeline"])
+        (self.channels, self.window, self.classes, self.track_m), self._pipeline = \
+            settings, pipeline
 
     def predict(self, context: Any, model_input: pd.DataFrame, params: dict | None = None
                 ) -> pd.DataFrame:

@@ -109,3 +109,29 @@ def test_a_failed_reload_leaves_the_served_model_as_it_was(train_dir, tmp_path):
                                             artifacts={"pipeline": str(broken)}))
     after = (served.settings, served.model, served.targets, served.config)
     assert after == before
+
+
+def test_a_failed_reload_leaves_the_terrain_pyfunc_as_it_was(train_dir, tmp_path):
+    # TerrainModel.load_context wrote the new channels, window and classes before reading
+    # the pipeline: a reload whose pipeline was broken left the old classifier with another
+    # model's channels (its windows cut to the new window, in the new channel order)
+    from types import SimpleNamespace
+
+    from terrain.serving.model import PIPELINE_ARTIFACT
+    from terrain.serving.pyfunc import TerrainModel
+
+    config = {"channels": list(WHEEL_CHANNELS), "classes": ["ASPHALT", "GRASS"],
+              "window": {"window_s": 2.0, "hop_s": None, "rate_hz": 20.0}, "track_m": 0.55}
+    model = TerrainModel()
+    model.load_context(SimpleNamespace(model_config=config, artifacts={
+        "pipeline": str(train_dir / PIPELINE_ARTIFACT)}))
+    before = (model.channels, model.window, model.classes, model.track_m, model._pipeline)
+    broken = tmp_path / "pipeline.joblib"
+    broken.write_bytes(b"")
+    other = {"channels": ["wx", "wy"], "classes": ["ICE"], "track_m": 1.0,
+             "window": {"window_s": 1.0, "hop_s": None, "rate_hz": 100.0}}
+    with pytest.raises(ConfigError, match="cannot be read as a fitted model"):
+        model.load_context(SimpleNamespace(model_config=other,
+                                           artifacts={"pipeline": str(broken)}))
+    assert (model.channels, model.window, model.classes, model.track_m,
+            model._pipeline) == before
