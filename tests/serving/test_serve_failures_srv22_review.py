@@ -79,12 +79,30 @@ def test_a_failed_start_closes_its_socket_and_frees_the_port(train_dir, monkeypa
     def broken(*_, **__):
         raise ConfigError("broken served model")
     monkeypatch.setattr(serve, "build_app", broken)
+    before = _open_sockets()
     with warnings.catch_warnings():
         warnings.simplefilter("error", ResourceWarning)
-        with pytest.raises(ConfigError, match="broken served model"):
+        with pytest.raises(ConfigError, match="broken served model") as failed:
             serve.main(_args("--model", str(train_dir), "--port", str(port)))
-    again = serve.bind_port("127.0.0.1", port)   # refused (in use) if it were still bound
+        # closed by main itself, not by the collector once the traceback goes
+        assert _open_sockets() == before, failed.traceback[-1]
+    again = serve.bind_port("127.0.0.1", port)
+    again.listen(1)
     again.close()
+
+
+def _open_sockets() -> int:
+    """Sockets this process holds open (Linux: its file descriptors naming a socket)."""
+    fds = Path("/proc/self/fd")
+    if not fds.is_dir():
+        pytest.skip("needs /proc/self/fd")
+    count = 0
+    for fd in fds.iterdir():
+        try:
+            count += os.readlink(fd).startswith("socket:")
+        except OSError:     # the listing's own descriptor, closed meanwhile
+            pass
+    return count
 
 
 def test_a_failed_reload_leaves_the_served_model_as_it_was(train_dir, tmp_path):
