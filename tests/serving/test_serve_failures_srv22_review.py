@@ -153,3 +153,23 @@ def test_a_failed_reload_leaves_the_terrain_pyfunc_as_it_was(train_dir, tmp_path
                                            artifacts={"pipeline": str(broken)}))
     assert (model.channels, model.window, model.classes, model.track_m,
             model._pipeline) == before
+
+
+def test_a_signal_while_wrapping_removes_the_temporary_model(train_dir, tmp_path, monkeypatch,
+                                                             capsys):
+    # no --served-out: the model is wrapped into a temporary folder, gone after the signal
+    import tempfile
+
+    scratch = tmp_path / "scratch"
+    scratch.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(scratch))
+    real = serve.save_served_model
+
+    def save_then_signal(out, *rest):
+        real(out, *rest)
+        os.kill(os.getpid(), signal.SIGTERM)
+        return out
+    monkeypatch.setattr(serve, "save_served_model", save_then_signal)
+    assert serve.main(_args("--model", str(train_dir), "--port", "0")) == 143
+    assert "stopped (SIGTERM) before serving\n" in capsys.readouterr().out
+    assert list(scratch.iterdir()) == []
