@@ -21,7 +21,7 @@ from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.experiment import ExperimentConfig, check_servable_signals, fit_pipeline
 from terrain.models.registry import MODELS, check_dependencies
 from terrain.serving.model import training_steps_s
-from terrain.serving.pyfunc import log_model, runs_to_model_input, save_model
+from terrain.serving.pyfunc import log_model, register_model, runs_to_model_input, save_model
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.tracking import tracked_run
 
@@ -177,8 +177,9 @@ def main(args: argparse.Namespace) -> int:
                 # a live stream's first steps are judged against its training step
                 "channel_steps_s": training_steps_s(used, ws.channels),
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
-        uri = log_model(pipe, ws.channels, window, classes, meta,
-                        None if args.no_register else f"terrain-{config.dataset}",
+        # registered last: a failure before (a full disk under --model-out, Ctrl-C) ends the
+        # run FAILED with no version that models:/terrain-<dataset>/latest would serve
+        uri = log_model(pipe, ws.channels, window, classes, meta, None,
                         input_example=example.head(2 * window.n_samples),
                         progress=not args.no_progress)
         print(f"trained on {len(ws)} windows of {len(np.unique(ws.run_ids))} runs, classes "
@@ -191,14 +192,16 @@ def main(args: argparse.Namespace) -> int:
                   "targets per class) refuse it")
         print(inputs.text())
         print(f"logged model: {uri}")
-        if not args.no_register:
-            print(f"registered as terrain-{config.dataset}: load it with --model "
-                  f"models:/terrain-{config.dataset}/latest from any folder using this "
-                  "tracking store (MLFLOW_TRACKING_URI, see README)")
         if args.model_out:
             save_model(args.model_out, pipe, ws.channels, window, classes, meta,
                        input_example=example.head(2 * window.n_samples),
                        progress=not args.no_progress)
             print(f"saved model directory: {args.model_out}")
+        if not args.no_register:
+            register_model(uri, f"terrain-{config.dataset}")
+    if not args.no_register:
+        print(f"registered as terrain-{config.dataset}: load it with --model "
+              f"models:/terrain-{config.dataset}/latest from any folder using this "
+              "tracking store (MLFLOW_TRACKING_URI, see README)")
     print(run.describe())
     return 0

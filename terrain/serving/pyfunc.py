@@ -548,6 +548,32 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     return info.model_uri
 
 
+def register_model(model_uri: str, name: str) -> str:
+    """Register a logged model under ``name`` in MLflow's model registry.
+
+    Registering apart from :func:`log_model` lets a command register its model as the last
+    step of its run: a failure after the logging (a full disk while saving ``--model-out``,
+    Ctrl-C) then ends the run ``FAILED`` with no version of ``name`` pointing at it, which
+    ``models:/<name>/latest`` would serve.
+
+    Parameters
+    ----------
+    model_uri : str
+        URI of the logged model (``models:/...`` as :func:`log_model` returns it, or
+        ``runs:/RUN_ID/PATH``).
+    name : str
+        Registry name (created when missing; otherwise a new version of it).
+
+    Returns
+    -------
+    str
+        The version number created.
+    """
+    import mlflow
+
+    return str(mlflow.register_model(model_uri, name).version)
+
+
 @contextlib.contextmanager
 def artifact_progress(enabled: bool):
     """Context in which MLflow shows (or hides) its artifact up/download progress bars.
