@@ -30,6 +30,11 @@ from terrain.models.registry import MAX_TORCH_THREADS, MODELS, check_dependencie
 from terrain.tracking import tracked_run
 
 EXPERIMENT = "terrain-compare"
+#: Files of --out that sum up compare_cells.csv: an earlier grid's are removed when this
+#: grid's first cell replaces its cells, so that a grid stopped by an error leaves none
+#: beside cells they do not describe.
+SUMMARY_FILES = ("compare_table.md", "compare_table.csv", "compare.png", "predictions.csv",
+                 "compare_grid.png", "compare_grid.md")
 #: --quick: a small grid (2 models, Vulpi, 2 folds, 1 CNN epoch) for smoke tests.
 QUICK = dict(models=("svm", "cnn"), signals=("all",), windows_s=(2.0,), datasets=("vulpi",),
              seeds=(0,), n_splits=2, max_epochs=1, n_threads=1)
@@ -246,6 +251,9 @@ def main(args: argparse.Namespace) -> int:
                 # each cell is logged and saved when it finishes, so a long grid that stops
                 # early keeps what it measured (child runs and compare_cells.csv)
                 log_cell(res)
+                if not results:     # the earlier grid's cells go now: so does what sums them
+                    for name in SUMMARY_FILES:
+                        (args.out / name).unlink(missing_ok=True)
                 results.append(res)
                 pd.DataFrame([r for done in results for r in done["rows"]]).to_csv(
                     args.out / "compare_cells.csv", index=False)
