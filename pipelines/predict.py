@@ -13,7 +13,7 @@ import argparse
 import pandas as pd
 
 from features.windows import WindowConfig, required_streams
-from pipelines.arguments import input_folder, input_path, output_file
+from pipelines.arguments import input_folder, input_path, output_file, whole_file
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
@@ -130,8 +130,8 @@ def main(args: argparse.Namespace) -> int:
     used = sum(1 for r in counts["per_run"] if r not in counts["too_short_runs"])
     with tracked_run(EXPERIMENT, params={"model": str(args.model),
                                          "runs_dir": str(args.runs_dir)}) as run:
-        args.out.parent.mkdir(parents=True, exist_ok=True)
-        pred.to_csv(args.out, index=False)
+        with whole_file(args.out) as tmp:  # a failure half-way leaves no half file
+            pred.to_csv(tmp, index=False)
         run.log_metrics({"n_windows": len(pred), "n_runs": len(runs), "n_runs_used": used,
                          "n_runs_skipped": len(counts["skipped_runs"]),
                          "n_windows_flagged": int((pred["flags"] != "").sum()),

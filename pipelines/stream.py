@@ -14,7 +14,8 @@ from __future__ import annotations
 import argparse
 
 from pipelines.arguments import (add_smoothing, input_folder, model_folder, output_file,
-                                 positive_number, probability, smoothing_from_args)
+                                 positive_number, probability, smoothing_from_args,
+                                 whole_file)
 from terrain.control import DesiredSlipConfig
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
@@ -85,7 +86,7 @@ def main(args: argparse.Namespace) -> int:
         if note:
             print(note)
     replay.check(args.run_dir)
-    args.out.parent.mkdir(parents=True, exist_ok=True)
-    replay.frame.to_csv(args.out, index=False)
+    with whole_file(args.out) as tmp:  # a failure half-way leaves no half file
+        replay.frame.to_csv(tmp, index=False)
     print(replay.summary(args.out))
     return 0
