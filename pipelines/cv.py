@@ -11,7 +11,8 @@ import argparse
 import json
 
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced, add_train_hop,
-                                 add_window_ekf, output_file, positive_number, seed_value)
+                                 add_window_ekf, output_file, positive_number, seed_value,
+                                 whole_file)
 from terrain.errors import ConfigError
 from terrain.io.jsonfile import json_ready
 from terrain.io.report import input_report
@@ -227,11 +228,13 @@ def main(args: argparse.Namespace) -> int:
             print(f"  note: {note}")
     print(f"  timings: {', '.join(f'{k} {v:.1f}' for k, v in result.timings_s.items())}")
     if args.json:
-        args.json.parent.mkdir(parents=True, exist_ok=True)
         # strict JSON (RFC 8259): an undefined figure (the recall of a class without a
-        # window) is null, not the bare token NaN that jq and JSON.parse refuse
-        args.json.write_text(json.dumps(json_ready(report, None), indent=1, default=str,
-                                        allow_nan=False) + "\n")
+        # window) is null, not the bare token NaN that jq and JSON.parse refuse; whole or
+        # not at all (a full disk left a file cut short, and the earlier report lost)
+        text = json.dumps(json_ready(report, None), indent=1, default=str,
+                          allow_nan=False) + "\n"
+        with whole_file(args.json) as tmp:
+            tmp.write_text(text)
         print(f"  report written to {args.json}")
     print(run.describe())
     return 0

@@ -135,3 +135,37 @@ def test_whole_file_keeps_the_mode_and_writes_through_a_link(tmp_path):
         raise KeyboardInterrupt
     assert target.read_text() == "new\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["link.csv", "target.csv"]
+
+
+@pytest.mark.parametrize("previous", [True, False])
+def test_cv_failing_half_way_through_the_json_leaves_no_partial_file(
+        tmp_path, monkeypatch, previous):
+    """``terrain cv --json`` cut short by a full disk: no JSON file cut short (which ``json``
+    readers refuse) and the report of an earlier run kept."""
+    from pathlib import Path
+
+    from test_pipe3_review import _cv_result
+
+    import pipelines.cv as cv
+
+    monkeypatch.setattr(cv, "load_dataset", lambda name: [])
+    monkeypatch.setattr(cv, "run_cv", lambda config, runs, progress: _cv_result(config))
+    monkeypatch.setattr(cv, "input_report", lambda *a: SimpleNamespace(
+        text=lambda: "", metrics=lambda: {}, table=pd.DataFrame()))
+    monkeypatch.setattr(cv, "plot_confusion", lambda *a: None)
+    monkeypatch.setattr(cv, "tracked_run", RecordingRun())
+    folder = tmp_path / "out"
+    folder.mkdir()
+    out = folder / "cv.json"
+    if previous:
+        out.write_text('{"old": 1}\n')
+
+    def write_text(path, text, *args, **kwargs):
+        with open(path, "w") as handle:
+            handle.write(text[:10])
+        raise OSError(errno.ENOSPC, "No space left on device")
+    monkeypatch.setattr(Path, "write_text", write_text)
+    assert exit_code(["cv", "--seeds", "0", "--json", str(out), "--no-progress"]) != 0
+    assert _left(folder, out) == (["cv.json"] if previous else [])
+    if previous:
+        assert out.read_text() == '{"old": 1}\n'
