@@ -17,6 +17,9 @@ signal and terrain of each model; ``residuals_by_manoeuvre``, ``residuals_by_run
 
 from __future__ import annotations
 
+import os
+import shutil
+import tempfile
 from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping, Sequence
@@ -27,7 +30,7 @@ import pandas as pd
 
 from terrain.audit.core import POOLED, AuditResult
 from terrain.audit.effects import EFFECT_VOCABULARY, GROUP_SIGNALS
-from terrain.io.jsonfile import json_ready
+from terrain.io.jsonfile import json_ready, replace_text
 
 FORMAT = "terrain-audit/1"
 BASELINE = (
@@ -402,9 +405,15 @@ def figures_folder(path: Path) -> Path:
 
 
 def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
-                   commands: Sequence[str] = (), title: str = "Simulation audit") -> None:
+                   commands: Sequence[str] = (), title: str = "Simulation audit",
+                   appendix: str = "") -> None:
     """Write the Markdown report at ``path`` and its figures in ``<stem>_figures/`` beside it
-    (:func:`figures_folder`).
+    (:func:`figures_folder`), whole or not at all.
+
+    The page is rendered and every figure saved (in a temporary folder beside ``path``)
+    before anything of an earlier report is touched: a failure leaves the earlier page and
+    its figures as they were. The figures folder then holds this report's figures only (an
+    ``audit_<key>.png`` of an earlier report that this one has not is removed).
 
     Parameters
     ----------
@@ -419,14 +428,35 @@ def write_markdown(path: Path, report: Mapping, figures: Mapping[str, Any],
         Shell commands that reproduce the report (from the repository root).
     title : str
         Page title.
+    appendix : str, optional
+        Markdown appended to the page (e.g. the physics comparison).
+
+    Raises
+    ------
+    jinja2.UndefinedError, KeyError
+        ``report`` lacks a field of the :func:`to_dict` layout (nothing written).
+    OSError
+        A figure or the page cannot be written (the earlier report left as it was).
     """
     path = Path(path)
     folder = figures_folder(path)
-    folder.mkdir(parents=True, exist_ok=True)
-    for key, fig in figures.items():
-        fig.savefig(folder / f"audit_{key}.png", dpi=90)
-    rel = {k: f"{folder.name}/audit_{k}.png" for k in figures}
-    path.write_text(to_markdown(report, rel, commands, title))
+    names = {k: f"audit_{k}.png" for k in figures}
+    text = to_markdown(report, {k: f"{folder.name}/{n}" for k, n in names.items()},
+                       commands, title) + appendix
+    path.parent.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=f".{folder.name}.partial-", dir=path.parent))
+    try:
+        for key, fig in figures.items():
+            fig.savefig(stage / names[key], dpi=90)
+        folder.mkdir(exist_ok=True)
+        for old in folder.glob("audit_*.png"):    # an earlier report's figure this one lacks
+            if old.name not in names.values():
+                old.unlink()
+        for name in names.values():
+            os.replace(stage / name, folder / name)
+        replace_text(path, text)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
 
 
 def summary_lines(report: Mapping, timings_s: Mapping[str, float]) -> list[str]:

@@ -10,6 +10,9 @@ Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``
 from __future__ import annotations
 
 import json
+import os
+import tempfile
+from pathlib import Path
 from typing import Any, Mapping
 
 import numpy as np
@@ -70,3 +73,34 @@ def strict_json(obj: Any, indent: int = 1) -> str:
         A value JSON cannot hold (an array, an object).
     """
     return json.dumps(json_ready(obj, None), indent=indent, allow_nan=False) + "\n"
+
+
+def replace_text(path: str | Path, text: str) -> None:
+    """Write ``text`` to ``path`` whole or not at all.
+
+    The text goes to a temporary file beside ``path`` (same folder, so the same file
+    system) that is renamed onto ``path`` in one step; on any error (an interrupt, a full
+    disk) the temporary file is removed and an earlier ``path`` is left as it was, never
+    cut short.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        File to write (its folder is created).
+    text : str
+        Its whole content.
+
+    Raises
+    ------
+    OSError
+        The folder cannot be created or written (``path`` unchanged).
+    """
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
+    try:
+        with os.fdopen(handle, "w") as fh:
+            fh.write(text)
+        os.replace(name, path)
+    finally:
+        Path(name).unlink(missing_ok=True)
