@@ -31,7 +31,7 @@ from terrain.audit.core import prepare_frames
 from terrain.audit.selection import (MAX_BOOTSTRAP, MAX_PARAM_BOOTSTRAP, MIN_BOOTSTRAP,
                                      MIN_PARAM_BOOTSTRAP)
 from terrain.audit.report import figures_folder, flat_metrics, summary_lines, write_markdown
-from terrain.io.jsonfile import json_ready
+from terrain.io.jsonfile import json_ready, replace_text
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.errors import ConfigError
 from terrain.io.measured import read_runs_dir
@@ -327,13 +327,15 @@ def _audit(args, runs, settings, source, name, tracked) -> None:
     if args.dataset:
         commands.append(f"# the same runs in the CSV layout give identical results: "
                         f"terrain audit <folder>/{args.dataset} --json ...")
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(report_json(report))
+    # every text rendered before any file is written; the JSON report, which other steps
+    # read as the audit's result, replaced last and in one step: a failure leaves the
+    # earlier JSON (and Markdown, write_markdown) as it was, not a new one beside an old page
+    text = report_json(report)
     if args.md:
-        write_markdown(args.md, report, figures, commands, title)
-        if comparison is not None:
-            with open(args.md, "a") as fh:
-                fh.write("\n" + comparison_markdown(comparison, report["physics_comparison"]))
+        appendix = ("\n" + comparison_markdown(comparison, report["physics_comparison"])
+                    if comparison is not None else "")
+        write_markdown(args.md, report, figures, commands, title, appendix=appendix)
+    replace_text(args.json, text)
     if tracked is not None:
         tracked.log_metrics({**flat_metrics(report), **inputs.metrics()})
         tracked.log_table(inputs.table, "input_report.csv")
