@@ -22,7 +22,7 @@ from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_fea
 from pipelines.arguments import (DistinctSeeds, DistinctValues, option_params, output_dir,
                                  seed_value, terrain_name)
 from terrain.errors import ConfigError
-from terrain.io.jsonfile import strict_json
+from terrain.io.jsonfile import staged_outputs, strict_json
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.slip.dataset import SlipDataSpec, simulated_runs
 from terrain.slip.evaluation import (baseline_predictions, error_table, leave_one_out,
@@ -40,6 +40,9 @@ TARGET_TERRAINS = ("ASPHALT", "SANDY_LOAM", "SNOW", "ICE", "GRASS")
 #: and the tree predictors of its HistGradientBoostingRegressors).
 TRUSTED = ("terrain.slip.learned.SlipRegressor",
            "sklearn.ensemble._hist_gradient_boosting.predictor.TreePredictor")
+#: the files the command writes to --out (an earlier run's that this one lacks are removed)
+OUTPUTS = ("std_calibration.csv", "summary.json", "slip_errors.csv", "odometry.csv",
+           "slip_errors.png", "odometry.png", "measured_checks.csv")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -133,10 +136,12 @@ def main(args: argparse.Namespace) -> int:
     test = meta["seed"].isin(args.test_seeds).to_numpy()
     train = ~test
     steady = steady_straight(meta, Yf["yaw_rate"].to_numpy())
-    args.out.mkdir(parents=True, exist_ok=True)
     params = {"n_runs": len(runs), "n_windows": len(X), **{k: str(v) for k, v in option_params(
         args, ("out", "cache_dir")).items()}}
-    with threadpool_limits(1, "openmp"), tracked_run(EXPERIMENT, "slip-husky", params) as run:
+    # every output written in a staging folder and moved into --out once all are: a failure
+    # leaves the earlier run's files whole, not a new summary.json beside its tables
+    with threadpool_limits(1, "openmp"), tracked_run(EXPERIMENT, "slip-husky", params) as run, \
+            staged_outputs(args.out, OUTPUTS) as stage:
         model = SlipRegressor().fit(X[train], Y[train],
                                     groups=meta["run_id"].to_numpy()[train])
         preds = {"learned": model.predict(X)}
@@ -145,7 +150,7 @@ def main(args: argparse.Namespace) -> int:
                            for name, m, by in (("all", test, ("scenario",)),
                                                ("steady_straight", steady & test, ("terrain",)))],
                           ignore_index=True)
-        calib.to_csv(args.out / "std_calibration.csv", index=False)
+        calib.to_csv(stage / "std_calibration.csv", index=False)
         run.log_table(calib, "std_calibration.csv")
         run.log_metrics({f"calibration.train_oof.{k}": v for k, v in model.calibration_.items()})
         preds.update(baseline_predictions(X, Y, meta, train, runs, vehicle.track_m))
@@ -178,18 +183,18 @@ def main(args: argparse.Namespace) -> int:
         if args.orchard_duration_s > args.duration_s:
             odo = pd.concat([odo, _long_orchard(args, vehicle, model)], ignore_index=True)
         summary = _summary(errors, odo)
-        (args.out / "summary.json").write_text(strict_json(summary, indent=2))
+        (stage / "summary.json").write_text(strict_json(summary, indent=2))
         run.log_metrics(summary)
         for frame, name in ((errors, "slip_errors.csv"), (odo, "odometry.csv")):
-            frame.to_csv(args.out / name, index=False)
+            frame.to_csv(stage / name, index=False)
             run.log_table(frame, name)
         for name, fig in (("slip_errors.png", error_figure(errors, TARGET_TERRAINS)),
                           ("odometry.png", odometry_figure(odo))):
-            fig.savefig(args.out / name, dpi=110)
+            fig.savefig(stage / name, dpi=110)
             run.log_figure(fig, name)
         if measured is not None:
             checks = _measured(measured, model, vehicle)
-            checks.to_csv(args.out / "measured_checks.csv", index=False)
+            checks.to_csv(stage / "measured_checks.csv", index=False)
             run.log_table(checks, "measured_checks.csv")
             print(checks.round(4).to_string(index=False))
         uri = run.log_sklearn_model(model, "slip-model", X.iloc[:5],

@@ -9,11 +9,13 @@ Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import shutil
 import tempfile
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any, Iterator, Mapping, Sequence
 
 import numpy as np
 
@@ -104,3 +106,52 @@ def replace_text(path: str | Path, text: str) -> None:
         os.replace(name, path)
     finally:
         Path(name).unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def staged_outputs(folder: str | Path, owned: Sequence[str],
+                   last: Sequence[str] = ("summary.json",)) -> Iterator[Path]:
+    """Write a command's output files into ``folder`` all together or not at all.
+
+    Yields a fresh hidden staging folder inside ``folder`` (the same file system) to write
+    the outputs to. On a clean exit, the files of an earlier run that match one of the
+    ``owned`` patterns and that this run did not write are removed from ``folder`` (no table
+    or figure of an earlier run is left beside the new ones), then every staged file is
+    renamed into ``folder``, those named in ``last`` after the others (a summary appears
+    only once what it describes is in place). On any error (an interrupt included) the
+    staging folder is removed and ``folder`` is left as the earlier run left it.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        The output folder (created).
+    owned : sequence of str
+        Glob patterns of the files the command writes to ``folder`` (``"tuning_*.csv"``).
+    last : sequence of str, optional
+        File names moved in after every other.
+
+    Yields
+    ------
+    pathlib.Path
+        The staging folder.
+
+    Raises
+    ------
+    OSError
+        ``folder`` cannot be created or written.
+    """
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    stage = Path(tempfile.mkdtemp(prefix=".partial-", dir=folder))
+    try:
+        yield stage
+        written = sorted((p.name for p in stage.iterdir() if p.is_file()),
+                         key=lambda name: (name in last, name))
+        for pattern in owned:
+            for old in folder.glob(pattern):
+                if old.is_file() and old.name not in written:
+                    old.unlink()
+        for name in written:
+            os.replace(stage / name, folder / name)
+    finally:
+        shutil.rmtree(stage, ignore_errors=True)
