@@ -34,9 +34,13 @@ from terrain.control.grid import (TUNING_SEEDS, check_grid_axes, compare, markdo
                                   run_grid, slip_limit_bound, tune_gains)
 from terrain.control.traction import TractionControlConfig
 from terrain.errors import ConfigError, duplicated
-from terrain.io.jsonfile import strict_json
+from terrain.io.jsonfile import staged_outputs, strict_json
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.tracking import tracked_run
+
+#: the files the command writes to --out (an earlier run's that this one lacks are removed)
+OUTPUTS = ("runs.csv", "comparison.csv", "comparison.md", "summary.json", "tuning_*.csv",
+           "slip_*.png", "energy_per_m.png")
 
 EXPERIMENT = "terrain-control"
 SOFT = ("GRASS", "UNPLOUGHED", "SANDY_LOAM", "SNOW")
@@ -217,7 +221,10 @@ def main(args: argparse.Namespace) -> int:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     params = option_params(args)
-    with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run:
+    # every output written in a staging folder and moved into --out once all are: a failure
+    # leaves the earlier run's files whole, not a new summary.json beside its plots
+    with tracked_run(EXPERIMENT, run_name="control-grid", params=params) as run, \
+            staged_outputs(out, OUTPUTS) as stage:
         estimators = {"husky": args.husky_estimator, "agrimaro": args.agrimaro_estimator}
         gains = {v: default_gains(v, estimators.get(v)) for v in args.vehicles}
         tuning = {}
@@ -229,7 +236,7 @@ def main(args: argparse.Namespace) -> int:
                     log=lambda r, v=veh: run.log_metrics(
                         {f"tune_{v}_cost": r["cost"]}, step=next(step)),
                     estimator=estimators.get(veh), feed_forward=not args.no_feed_forward)
-                tuning[veh].to_csv(out / f"tuning_{veh}.csv", index=False)
+                tuning[veh].to_csv(stage / f"tuning_{veh}.csv", index=False)
                 run.log_table(tuning[veh], f"tuning_{veh}.csv")
         decisions, classifiers = {}, {}
         for veh in args.vehicles:
@@ -244,17 +251,17 @@ def main(args: argparse.Namespace) -> int:
                                    gains, args.duration_s, estimators,
                                    not args.no_feed_forward, decisions)
         table = compare(results)
-        results.to_csv(out / "runs.csv", index=False)
-        table.to_csv(out / "comparison.csv", index=False, float_format="%.4f")
-        (out / "comparison.md").write_text(markdown_table(table))
+        results.to_csv(stage / "runs.csv", index=False)
+        table.to_csv(stage / "comparison.csv", index=False, float_format="%.4f")
+        (stage / "comparison.md").write_text(markdown_table(table))
         bound = [slip_limit_bound(r.terrain, r.peak_slip_off) for r in table.itertuples()
                  if r.terrain in SOFT and r.scenario == "straight_accel"]
         summary = {"gains": {v: list(g) for v, g in gains.items()},
                    "tuning_seeds": list(TUNING_SEEDS), "evaluation_seeds": args.seeds,
                    "comparison": table.to_dict(orient="records"), "slip_limit_bound": bound,
                    "terrain_source": classifiers}
-        (out / "summary.json").write_text(strict_json(summary))
-        for p in _plots(traces, table, out):
+        (stage / "summary.json").write_text(strict_json(summary))
+        for p in _plots(traces, table, stage):
             run.log_artifact(p, "plots")
         run.log_table(table, "comparison.csv")
         run.log_dict(summary, "summary.json")
