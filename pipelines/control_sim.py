@@ -30,7 +30,6 @@ removed) and more (terrain.control.closed_loop.loop_metrics).
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 
 from pipelines.arguments import (model_folder, non_negative_number, output_file, seed_value,
                                  sim_duration_s)
@@ -40,7 +39,7 @@ from pipelines.control_classifier import (CLASSIFIER_SEEDS, TERRAIN_SOURCES,
 from terrain.control.closed_loop import default_gains, run_closed_loop, trace_frame
 from terrain.control.estimators import ESTIMATORS
 from terrain.errors import ConfigError
-from terrain.io.jsonfile import strict_json
+from terrain.io.jsonfile import replace_text, strict_json
 from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import get_terrain
 
@@ -194,11 +193,12 @@ def main(args: argparse.Namespace) -> int:
            "scenario": args.scenario, "controller": args.controller, "seed": args.seed,
            "duration_s": args.duration_s, "terrain_source": note,
            "classifier": info, **metrics}
-    Path(args.json).parent.mkdir(parents=True, exist_ok=True)
-    Path(args.json).write_text(strict_json(out))
+    # both texts made before either file is written, each replaced in one step, the JSON
+    # last: a failure leaves the earlier pair whole, not a new JSON beside an earlier trace
+    text = strict_json(out)
     if args.csv:
-        Path(args.csv).parent.mkdir(parents=True, exist_ok=True)
-        trace_frame(sim, loop).to_csv(args.csv, index=False, float_format="%.6g")
+        replace_text(args.csv, trace_frame(sim, loop).to_csv(index=False, float_format="%.6g"))
+    replace_text(args.json, text)
     energy = metrics["energy_j_per_m"]      # None for a run that does not move
     print(f"wrote {args.json}: peak_slip {metrics['peak_slip']:.3f}, energy "
           + ("n/a (the run did not move)" if energy is None else f"{energy:.1f} J/m"))
