@@ -12,16 +12,12 @@ is the type of every seed option.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import errno
 import math
 import os
 import re
-import shutil
 import tempfile
-import uuid
 from pathlib import Path
-from typing import Iterator
 
 from terrain.errors import ConfigError, duplicated
 from terrain.io.measured import is_run_file_name
@@ -308,44 +304,6 @@ def model_dir(value: str) -> Path:
 #: argparse ``type`` of every option naming a file or folder the command writes: an error
 #: while writing that names no file (a full disk) is reported naming these options
 OUTPUT_TYPES = (output_file, output_dir, model_dir)
-
-
-@contextlib.contextmanager
-def whole_file(path: Path) -> Iterator[Path]:
-    """Write an output file whole or not at all.
-
-    Yields a fresh temporary name in ``path``'s folder (created if missing; the same file
-    system) to write the file to; on a clean exit it replaces ``path`` in one step
-    (:func:`os.replace`), and on any error (an interrupt included) it is removed: a failure
-    half-way through (a full disk) neither leaves half a file that a later step reads as
-    the whole output nor destroys the file of an earlier run.
-
-    Parameters
-    ----------
-    path : pathlib.Path
-        The output file (a symbolic link: the file it links to).
-
-    Yields
-    ------
-    pathlib.Path
-        The temporary file to write (it exists, empty), with ``path``'s permission bits,
-        or those of a new file where there is no ``path`` yet.
-    """
-    path = Path(path)
-    if path.is_symlink():   # the file linked to is the output, as open() writes through
-        path = path.resolve()
-    path.parent.mkdir(parents=True, exist_ok=True)
-    # a name of this write's own (short: a name the system takes stays one), created as
-    # open() creates a new file (the umask's mode: mkstemp's 0600 hid the output from others)
-    tmp = path.with_name(f".{path.name[:64]}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial")
-    try:
-        tmp.open("x").close()
-        if path.exists():
-            shutil.copymode(path, tmp)
-        yield tmp
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def check_output_files(command: argparse.ArgumentParser, args: argparse.Namespace) -> None:

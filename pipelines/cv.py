@@ -11,10 +11,9 @@ import argparse
 import json
 
 from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_run_balanced, add_train_hop,
-                                 add_window_ekf, output_file, positive_number, seed_value,
-                                 whole_file)
+                                 add_window_ekf, output_file, positive_number, seed_value)
 from terrain.errors import ConfigError
-from terrain.io.jsonfile import json_ready
+from terrain.io.jsonfile import json_ready, whole_file
 from terrain.io.report import input_report
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import PROTOCOLS

@@ -13,8 +13,9 @@ import argparse
 import pandas as pd
 
 from features.windows import WindowConfig, required_streams
-from pipelines.arguments import input_folder, input_path, output_file, whole_file
+from pipelines.arguments import input_folder, input_path, output_file
 from terrain.errors import ConfigError, DataFormatError
+from terrain.io.jsonfile import whole_file
 from terrain.io.measured import read_runs_path
 from terrain.io.plausibility import stuck_window_flags
 from terrain.io.report import input_report

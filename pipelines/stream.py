@@ -14,9 +14,9 @@ from __future__ import annotations
 import argparse
 
 from pipelines.arguments import (add_smoothing, input_folder, model_folder, output_file,
-                                 positive_number, probability, smoothing_from_args,
-                                 whole_file)
+                                 positive_number, probability, smoothing_from_args)
 from terrain.control import DesiredSlipConfig
+from terrain.io.jsonfile import whole_file
 from terrain.io.measured import read_folder_run
 from terrain.serving import StreamConfig, StreamService, TableTargets, load_stream_model
 from terrain.serving.model import imu_rate_note, other_vehicle_note

@@ -5,6 +5,11 @@ Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``
 ``JSON.parse`` and other strict readers refuse the whole file. The audit report and the
 ``summary.json`` of ``terrain slip-fit`` and ``terrain control-grid`` go through
 :func:`json_ready` first.
+
+Output files are written whole or not at all: :func:`whole_file` (one file through a
+temporary name and :func:`os.replace`; the commands' CSV and JSON outputs),
+:func:`replace_text` (the same for a text) and :func:`staged_outputs` (a command's set of
+files, moved in together).
 """
 
 from __future__ import annotations
@@ -14,6 +19,7 @@ import json
 import os
 import shutil
 import tempfile
+import uuid
 from pathlib import Path
 from typing import Any, Iterator, Mapping, Sequence
 
@@ -77,6 +83,44 @@ def strict_json(obj: Any, indent: int = 1) -> str:
     return json.dumps(json_ready(obj, None), indent=indent, allow_nan=False) + "\n"
 
 
+@contextlib.contextmanager
+def whole_file(path: Path) -> Iterator[Path]:
+    """Write an output file whole or not at all.
+
+    Yields a fresh temporary name in ``path``'s folder (created if missing; the same file
+    system) to write the file to; on a clean exit it replaces ``path`` in one step
+    (:func:`os.replace`), and on any error (an interrupt included) it is removed: a failure
+    half-way through (a full disk) neither leaves half a file that a later step reads as
+    the whole output nor destroys the file of an earlier run.
+
+    Parameters
+    ----------
+    path : pathlib.Path
+        The output file (a symbolic link: the file it links to).
+
+    Yields
+    ------
+    pathlib.Path
+        The temporary file to write (it exists, empty), with ``path``'s permission bits,
+        or those of a new file where there is no ``path`` yet.
+    """
+    path = Path(path)
+    if path.is_symlink():   # the file linked to is the output, as open() writes through
+        path = path.resolve()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    # a name of this write's own (short: a name the system takes stays one), created as
+    # open() creates a new file (the umask's mode: mkstemp's 0600 hid the output from others)
+    tmp = path.with_name(f".{path.name[:64]}.{os.getpid()}-{uuid.uuid4().hex[:8]}.partial")
+    try:
+        tmp.open("x").close()
+        if path.exists():
+            shutil.copymode(path, tmp)
+        yield tmp
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
 def replace_text(path: str | Path, text: str) -> None:
     """Write ``text`` to ``path`` whole or not at all.
 
@@ -97,15 +141,8 @@ def replace_text(path: str | Path, text: str) -> None:
     OSError
         The folder cannot be created or written (``path`` unchanged).
     """
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    handle, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".partial", dir=path.parent)
-    try:
-        with os.fdopen(handle, "w") as fh:
-            fh.write(text)
-        os.replace(name, path)
-    finally:
-        Path(name).unlink(missing_ok=True)
+    with whole_file(Path(path)) as tmp:
+        tmp.write_text(text)
 
 
 @contextlib.contextmanager

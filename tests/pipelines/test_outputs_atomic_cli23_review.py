@@ -118,7 +118,7 @@ def test_whole_file_keeps_the_mode_and_writes_through_a_link(tmp_path):
     written through (the file it names), as ``open`` wrote it, not replaced by a file."""
     import os
 
-    from pipelines.arguments import whole_file
+    from terrain.io.jsonfile import whole_file
 
     target = tmp_path / "target.csv"
     target.write_text(PREVIOUS)
