@@ -11,7 +11,6 @@ import pytest
 
 import pipelines.compare as compare
 from terrain.cli import main
-from terrain.tracking import tracking_uri
 
 CELL = {"model": "svm", "dataset": "vulpi", "signals": "all", "window_s": 2.0, "seed": 0,
         "protocol": "grouped", "train_hop_s": None}
@@ -65,7 +64,10 @@ def test_a_grid_that_stops_keeps_its_cells_and_no_summary_of_an_earlier_grid(
     left = sorted(p.name for p in out.iterdir())
     assert left == ["compare_cells.csv"], left
     # MLflow: the parent FAILED, its one finished cell FINISHED, nothing left RUNNING
-    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    # (the store named, not read back from the environment: the entry point set MLflow's
+    # process-wide URI, which MLflow exports, and the finally above set it back to another
+    # test's store where an earlier test of the suite had set one)
+    client = mlflow.MlflowClient(tracking_uri=f"sqlite:///{tmp_path / 'mlflow.db'}")
     runs = client.search_runs([client.get_experiment_by_name("terrain-compare").experiment_id])
     status = {r.info.run_name: r.info.status for r in runs}
     assert status == {"compare": "FAILED", "svm-vulpi-all-2s-seed0": "FINISHED"}
