@@ -179,7 +179,7 @@ def main(args: argparse.Namespace) -> int:
                 "trained_on_runs": int(len(np.unique(ws.run_ids))), **info}
         # registered last: a failure before (a full disk under --model-out, Ctrl-C) ends the
         # run FAILED with no version that models:/terrain-<dataset>/latest would serve
-        uri = log_model(pipe, ws.channels, window, classes, meta, None,
+        uri = log_model(pipe, ws.channels, window, classes, meta,
                         input_example=example.head(2 * window.n_samples),
                         progress=not args.no_progress)
         print(f"trained on {len(ws)} windows of {len(np.unique(ws.run_ids))} runs, classes "

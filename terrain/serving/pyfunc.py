@@ -510,9 +510,10 @@ def save_model(path: str | Path, pipeline: Any, channels: Sequence[str],
 
 
 def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
-              classes: Sequence[str], metadata: dict, registered_name: str | None,
+              classes: Sequence[str], metadata: dict,
               input_example: pd.DataFrame | None = None, progress: bool = True) -> str:
-    """Log (and register) the inference pipeline in the active MLflow run.
+    """Log the inference pipeline in the active MLflow run (registering it is
+    :func:`register_model`'s).
 
     Parameters
     ----------
@@ -526,8 +527,6 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
         Terrain classes.
     metadata : dict
         Extra model metadata (dataset, signals...).
-    registered_name : str or None
-        Registry name, or None not to register.
     input_example : pandas.DataFrame, optional
         Aligned samples in the model's input format (a few windows), stored with the model.
     progress : bool
@@ -536,13 +535,12 @@ def log_model(pipeline: Any, channels: Sequence[str], window: WindowConfig,
     Returns
     -------
     str
-        The model URI (``models:/...``).
+        The model URI (``models:/...``), unregistered.
     """
     import mlflow.pyfunc
 
     with tempfile.TemporaryDirectory() as tmp, artifact_progress(progress):
-        info = mlflow.pyfunc.log_model(name="terrain-model", registered_model_name=registered_name,
-                                       input_example=input_example,
+        info = mlflow.pyfunc.log_model(name="terrain-model", input_example=input_example,
                                        **_model_kwargs(pipeline, channels, window, classes,
                                                        metadata, Path(tmp)))
     return info.model_uri
