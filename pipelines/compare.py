@@ -23,6 +23,7 @@ from pipelines.arguments import (DistinctSeeds, add_cnn_seeds, add_train_hop, in
                                  output_dir, parse_integer, positive_integer, positive_number,
                                  seed_value)
 from terrain.errors import ConfigError
+from terrain.io.jsonfile import staged_outputs, whole_file
 from terrain.models.compare import (BACKENDS, COMPARE_PROTOCOLS, CompareConfig, check_backend,
                                     grid_markdown, iter_grid, joblib_backend, markdown_table,
                                     plot_comparison, plot_grid, spans_grid, summary_table)
@@ -255,29 +256,32 @@ def main(args: argparse.Namespace) -> int:
                     for name in SUMMARY_FILES:
                         (args.out / name).unlink(missing_ok=True)
                 results.append(res)
-                pd.DataFrame([r for done in results for r in done["rows"]]).to_csv(
-                    args.out / "compare_cells.csv", index=False)
+                with whole_file(args.out / "compare_cells.csv") as tmp:
+                    pd.DataFrame([r for done in results for r in done["rows"]]).to_csv(
+                        tmp, index=False)
         rows = pd.DataFrame([r for res in results for r in res["rows"]])
         table = summary_table(rows)
         md = markdown_table(table)
-        (args.out / "compare_table.md").write_text(md)
-        table.to_csv(args.out / "compare_table.csv", index=False)
-        fig = plot_comparison(table)
-        fig.savefig(args.out / "compare.png", dpi=120)
-        for name in ("compare_table.md", "compare_table.csv", "compare_cells.csv"):
-            run.log_artifact(args.out / name)
-        run.log_figure(fig, "compare.png")
-        if spans_grid(table):
-            grid = plot_grid(table)
-            grid.savefig(args.out / "compare_grid.png", dpi=120, bbox_inches="tight")
-            run.log_figure(grid, "compare_grid.png")
-            (args.out / "compare_grid.md").write_text(grid_markdown(table, config.history))
-            run.log_artifact(args.out / "compare_grid.md")
-        else:   # an earlier, larger grid's figure would stand beside this table as its own
-            for name in ("compare_grid.png", "compare_grid.md"):
-                (args.out / name).unlink(missing_ok=True)
-        pd.concat([r["predictions"] for r in results]).to_csv(args.out / "predictions.csv",
-                                                              index=False)
+        # the summary lands whole or not at all, the tables last; an earlier, larger grid's
+        # figure would stand beside this table as its own, so a file not written goes
+        with staged_outputs(args.out, SUMMARY_FILES,
+                            last=("compare_table.csv", "compare_table.md")) as stage:
+            (stage / "compare_table.md").write_text(md)
+            table.to_csv(stage / "compare_table.csv", index=False)
+            fig = plot_comparison(table)
+            fig.savefig(stage / "compare.png", dpi=120)
+            for name in ("compare_table.md", "compare_table.csv"):
+                run.log_artifact(stage / name)
+            run.log_artifact(args.out / "compare_cells.csv")
+            run.log_figure(fig, "compare.png")
+            if spans_grid(table):
+                grid = plot_grid(table)
+                grid.savefig(stage / "compare_grid.png", dpi=120, bbox_inches="tight")
+                run.log_figure(grid, "compare_grid.png")
+                (stage / "compare_grid.md").write_text(grid_markdown(table, config.history))
+                run.log_artifact(stage / "compare_grid.md")
+            pd.concat([r["predictions"] for r in results]).to_csv(stage / "predictions.csv",
+                                                                  index=False)
     print(md)
     # once per distinct note (every seed and model of a dataset cuts the same blocks)
     for note in dict.fromkeys(n for res in results for n in res.get("notes", ())):

@@ -72,3 +72,27 @@ def test_a_grid_that_stops_keeps_its_cells_and_no_summary_of_an_earlier_grid(
     status = {r.info.run_name: r.info.status for r in runs}
     assert status == {"compare": "FAILED", "svm-vulpi-all-2s-seed0": "FINISHED"}
     assert mlflow.active_run() is None
+
+
+def test_a_summary_that_fails_half_way_leaves_no_part_of_itself(
+        tmp_path, monkeypatch, empty_store, capsys):
+    # the table and figure were written into --out one by one, so a failure while joining
+    # the predictions left a compare_table.md/csv and compare.png without predictions.csv,
+    # a summary a later reader takes as whole; now the summary lands all together or not
+    shutil.copy(empty_store, tmp_path / "mlflow.db")
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", "")   # the entry point exports it; restored
+    previous = mlflow.get_tracking_uri()
+    out = tmp_path / "cmp"
+
+    def grid(config, n_jobs):
+        yield {"cell": CELL, "rows": [ROW], "predictions": None}   # pd.concat refuses it
+
+    monkeypatch.setattr(compare, "iter_grid", grid)
+    try:
+        assert main(["compare", "--models", "svm", "--datasets", "vulpi", "--signals", "all",
+                     "--windows-s", "2", "--seeds", "0", "--n-jobs", "1", "--no-progress",
+                     "--out", str(out)]) == 1
+    finally:
+        mlflow.set_tracking_uri(previous)
+    assert sorted(p.name for p in out.iterdir()) == ["compare_cells.csv"]
