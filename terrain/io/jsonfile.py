@@ -18,6 +18,7 @@ import contextlib
 import json
 import os
 import shutil
+import stat
 import tempfile
 import uuid
 from pathlib import Path
@@ -93,6 +94,11 @@ def whole_file(path: Path) -> Iterator[Path]:
     half-way through (a full disk) neither leaves half a file that a later step reads as
     the whole output nor destroys the file of an earlier run.
 
+    An output that is a stream, not a file (a named pipe, a terminal, ``/dev/stdout`` or
+    another device, directly or through a link), cannot be replaced whole: it is yielded
+    as it is and written as it goes (renaming a file over it would take the pipe's or the
+    device's place and its reader would get nothing).
+
     Parameters
     ----------
     path : pathlib.Path
@@ -102,9 +108,17 @@ def whole_file(path: Path) -> Iterator[Path]:
     ------
     pathlib.Path
         The temporary file to write (it exists, empty), with ``path``'s permission bits,
-        or those of a new file where there is no ``path`` yet.
+        or those of a new file where there is no ``path`` yet; ``path`` itself for a pipe
+        or a device.
     """
     path = Path(path)
+    try:
+        mode = path.stat().st_mode      # through a link, as open() writes
+    except OSError:                     # none yet, or a link to nothing: a new file
+        mode = None
+    if mode is not None and not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
+        yield path
+        return
     if path.is_symlink():   # the file linked to is the output, as open() writes through
         path = path.resolve()
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 
 import numpy as np
 import pytest
@@ -86,3 +87,44 @@ def _same(loaded, original):
 def test_strict_json_reads_back_every_finite_float_exactly(value):
     loaded = json.loads(strict_json(value), parse_constant=_strict)
     assert _same(loaded, value)
+
+
+def _read_fifo_in_background(fifo):
+    import threading
+
+    got = {}
+
+    def read():
+        with open(fifo) as f:
+            got["text"] = f.read()
+
+    reader = threading.Thread(target=read, daemon=True)
+    reader.start()
+    return reader, got
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="needs named pipes")
+@pytest.mark.parametrize("through_link", [False, True])
+def test_whole_file_writes_a_pipe_or_device_through_and_never_replaces_it(tmp_path,
+                                                                          through_link):
+    # `--out /dev/stdout` (a link to a pipe or terminal) or a named pipe: the text went to a
+    # temporary regular file that os.replace then renamed over the pipe (as root, over
+    # /dev/full or /dev/null themselves), so the reader got nothing and the node was gone
+    import stat
+
+    from terrain.io.jsonfile import whole_file
+
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    target = fifo
+    if through_link:
+        target = tmp_path / "stdout"
+        target.symlink_to(fifo)
+    reader, got = _read_fifo_in_background(fifo)
+    with whole_file(target) as tmp:
+        tmp.write_text("t_s,terrain\n1.0,SNOW\n")
+    reader.join(timeout=5)
+    assert got.get("text") == "t_s,terrain\n1.0,SNOW\n"
+    assert stat.S_ISFIFO(os.stat(fifo).st_mode)
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(
+        ["pipe"] + (["stdout"] if through_link else []))
