@@ -50,6 +50,7 @@ from terrain.control.estimators import ESTIMATORS
 from terrain.control.grid import TUNING_SEEDS
 from terrain.control.traction import config_for_vehicle
 from terrain.errors import ConfigError, config_seed, duplicated
+from terrain.io.jsonfile import replace_text
 from terrain.models.registry import ModelConfig, make_model
 from terrain.serving.model import load_stream_model
 from terrain.serving.pyfunc import runs_to_model_input, save_model
@@ -247,7 +248,8 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
                input_example=example.head(CLASSIFIER_WINDOW.n_samples))
     shutil.rmtree(model_dir, ignore_errors=True)
     tmp.rename(model_dir)
-    info_path.write_text(json.dumps(info, indent=1) + "\n")
+    # whole or not at all: the cache takes a model with its info.json as complete
+    replace_text(info_path, json.dumps(info, indent=1) + "\n")
     return model_dir, {**info, "cached": False}
 
 

@@ -35,6 +35,7 @@ from pipelines.slip_model import resolve_slip_model
 from terrain.errors import ConfigError, DataFormatError, EstimationError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.runner import MAX_RATE_HZ, MIN_RATE_HZ, check_rate_hz
+from terrain.io.jsonfile import whole_file
 from terrain.io.measured import read_runs_path
 from terrain.io.report import input_report
 from terrain.run import TIME
@@ -197,7 +198,8 @@ def main(args: argparse.Namespace) -> int:
         frame = est.to_frame()
         # the states to 9 digits; the time exactly (an epoch clock needs 10 before the point)
         frame[TIME] = [repr(float(t)) for t in frame[TIME]]
-        frame.to_csv(out, index=False, float_format="%.9g")
+        with whole_file(out) as tmp:    # a failure half-way leaves no half table
+            frame.to_csv(tmp, index=False, float_format="%.9g")
         print(f"{est.summary()} -> {out}")
     estimated = len(runs) - len(refused)
     if lags["not applied"] or (args.lag == "xcorr" and lags["not estimated"] and estimated > 1):
