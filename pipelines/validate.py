@@ -21,6 +21,7 @@ import numpy as np
 import pandas as pd
 
 from pipelines.arguments import check_derived_output, output_file
+from terrain.io.jsonfile import staged_outputs
 
 #: report name -> module with ``sections(quick)`` (read-only; imported when run, so that
 #: building the ``terrain`` parser stays light)
@@ -117,22 +118,13 @@ def main(args: argparse.Namespace) -> int:
 
 def _write_report(report: str, out: Path, text: str, quick: bool) -> list[Path]:
     """Write the Markdown ``text`` to ``out`` and draw the report's figures beside it, all
-    under temporary names (``.<stem>.writing<suffix>``, its figures named after it), renamed
-    into place once every one is written: a failure (a figure that cannot be drawn, a full
-    disk, an interrupt) leaves the files of an earlier run as they were, not new tables
-    beside its figure or a cut file, and no temporary file. Returns the figure files."""
+    in a staging folder beside it (:func:`terrain.io.jsonfile.staged_outputs`) and moved
+    into place once every one is written, the Markdown last: a failure (a figure that cannot
+    be drawn, a full disk, an interrupt) leaves the files of an earlier run as they were,
+    not new tables beside its figure or a cut file, and no temporary file. Returns the
+    figure files."""
     from pipelines.validation.figures import figure_paths, figures  # matplotlib: with --out
-    out.parent.mkdir(parents=True, exist_ok=True)
-    stage = out.with_name(f".{out.stem}.writing{out.suffix}")
-    final = figure_paths(report, out)
-    staged = {stage: out, **{figure_paths(report, stage)[name]: path
-                             for name, path in final.items()}}
-    try:
-        stage.write_text(text)
-        figures(report, stage, quick)
-        for tmp, path in staged.items():
-            tmp.replace(path)
-    finally:
-        for tmp in staged:
-            tmp.unlink(missing_ok=True)
-    return list(final.values())
+    with staged_outputs(out.parent, (), last=(out.name,)) as stage:
+        (stage / out.name).write_text(text)
+        figures(report, stage / out.name, quick)
+    return list(figure_paths(report, out).values())
