@@ -54,6 +54,7 @@ from types import MappingProxyType
 from typing import Mapping
 
 import numpy as np
+from scipy.optimize import brentq
 
 from terrain.errors import (ConfigError, ShapeError, config_flags, config_integer,
                             config_numbers, config_positive)
@@ -310,7 +311,9 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     """Static sinkage and contact length of a wheel on soil (Bekker, Wong eq. 2.33).
 
     Fixed point of ``z = bekker_sinkage_m(W, b, l(z))`` with the chord of the sunk wheel
-    ``l(z) = max(l_0, 2 sqrt(2 r z - z^2))``.
+    ``l(z) = max(l_0, 2 sqrt(2 r z - z^2))``: damped iteration of the contact length, and
+    where that leaves the pair off the fixed point (it oscillates for ``n < 1/6``, the heavy
+    clays of Wong's Table 2.3) the root bracketed in ``[0, z_max]``.
 
     ``b`` in Bekker's ``k_c / b`` is the tyre width even where the contact is shorter than
     it is wide, whereas Bekker takes the plate's smaller side. For the Husky (width 0.11 m,
@@ -333,7 +336,8 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     soil : SoilParams
         Soil.
     iterations : int
-        Fixed-point iterations (an integer >= 1).
+        Damped fixed-point iterations (an integer >= 1) before the check that the pair is
+        the fixed point.
 
     Returns
     -------
@@ -360,11 +364,25 @@ def wheel_sinkage_m(load_n: float, width_m: float, footprint_length_m: float,
     length = footprint_length_m
     z = 0.0
     z_max = max_sinkage_m(wheel_radius_m, soil)
+
+    def sinkage_on(chord_m: float) -> float:
+        return min(bekker_sinkage_m(load_n, width_m, chord_m, soil.k_c, soil.k_phi, soil.n),
+                   z_max)
+
+    def chord_of(z_m: float) -> float:
+        return float(contact_chord_m(z_m, wheel_radius_m, footprint_length_m))
+
     for _ in range(iterations):
-        z = min(bekker_sinkage_m(load_n, width_m, length, soil.k_c, soil.k_phi, soil.n),
-                z_max)
-        chord = float(contact_chord_m(z, wheel_radius_m, footprint_length_m))
-        length = 0.5 * length + 0.5 * chord   # damped
+        z = sinkage_on(length)
+        length = 0.5 * length + 0.5 * chord_of(z)   # damped
+    if not (abs(length - chord_of(z)) <= 1e-9 * length
+            and abs(z - sinkage_on(length)) <= 1e-9 * z):
+        # the damped map oscillates where its slope 1/2 - 1/(4n) is below -1 (n < 1/6: the
+        # heavy clays of Wong's Table 2.3, n = 0.11-0.13): the sinkage on the sunk chord
+        # falls strictly as the sinkage grows, so its one root in [0, z_max] is bracketed
+        z = float(brentq(lambda z_m: sinkage_on(chord_of(z_m)) - z_m, 0.0, z_max,
+                         xtol=1e-300))
+        length = chord_of(z)
     return float(z), float(length)
 
 
