@@ -178,9 +178,12 @@ def brixius_traction(abs_slip: np.ndarray, mobility_number: float
     -------
     mu, dmu_ds : ndarray, shape (...)
     """
-    amp = 0.88 * (1.0 - np.exp(-0.1 * mobility_number))
-    e = np.exp(-7.5 * abs_slip)
-    return amp * (1.0 - e), amp * 7.5 * e
+    # 1 - exp(-x) as -expm1, as in burckhardt_traction: written out it lost its digits at
+    # small slip (8e-8 of mu at s = 1e-10, 48 % at 1e-17), so the friction ellipse's secant
+    # mu / s jumped where it switches to the slope at 0
+    amp = 0.88 * -np.expm1(-0.1 * mobility_number)
+    x = -7.5 * np.asarray(abs_slip, dtype=float)
+    return amp * -np.expm1(x), amp * 7.5 * np.exp(x)
 
 
 def brixius_motion_resistance(abs_slip: np.ndarray, mobility_number: float

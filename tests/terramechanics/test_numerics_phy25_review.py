@@ -3,14 +3,19 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import replace
 
+import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from terrain.terramechanics.catalogue import TERRAINS
+from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SOILS, contact_chord_m, wheel_sinkage_m
 from terrain.terramechanics.resistance import bekker_sinkage_m
+from terrain.terramechanics.traction import brixius_traction
 
 #: Wong, Theory of Ground Vehicles, 4th ed., Table 2.3: heavy clay, 40 % moisture
 #: (n = 0.11, k_c = 1.84 kN/m^(n+1), k_phi = 103.27 kN/m^(n+2), c = 20.69 kPa, phi = 6 deg).
@@ -48,3 +53,28 @@ def test_wheel_sinkage_is_bekkers_sinkage_on_its_own_chord_for_any_exponent(
     soil = replace(HEAVY_CLAY, n=n, k_phi=k_phi)
     z, length = wheel_sinkage_m(load_n, width_m, 0.08, radius_m, soil)
     _assert_fixed_point(load_n, width_m, 0.08, radius_m, soil, z, length)
+
+
+@pytest.mark.parametrize("terrain_name", sorted(TERRAINS))
+def test_combined_slip_secant_is_continuous_where_it_switches_to_the_slope_at_zero(
+        terrain_name):
+    # the friction ellipse takes d mu / ds at 0 below a resultant slip of 1e-12 and
+    # mu(s) / s above it: Brixius's 1 - exp(-7.5 s) written out lost its digits there, so
+    # the secant jumped by 8e-8 of itself (48 % at s = 1e-17 in mu itself)
+    curve = TERRAINS[terrain_name].curve
+    below, above = np.array([0.999e-12]), np.array([1.001e-12])
+    zero = np.zeros(1)
+    at_zero = combined_slip_coefficients(curve, below, zero, 1.0).secant[0]
+    past = combined_slip_coefficients(curve, above, zero, 1.0).secant[0]
+    assert past == pytest.approx(at_zero, rel=1e-9)    # ICE: c2 s / 2 = 1.5e-10
+
+
+@settings(max_examples=60, deadline=None)
+@given(slip=st.floats(1e-18, 1e-3), mobility=st.floats(0.5, 200.0))
+def test_brixius_traction_keeps_its_digits_at_small_slip(slip, mobility):
+    # reference: 1 - exp(-x) from its series, exact to the last bits for x <= 7.5e-3
+    x = 7.5 * slip
+    one_minus_e = x * (1.0 - x / 2.0 * (1.0 - x / 3.0 * (1.0 - x / 4.0 * (1.0 - x / 5.0))))
+    amp = 0.88 * -math.expm1(-0.1 * mobility)
+    mu = brixius_traction(np.array([slip]), mobility)[0][0]
+    assert mu == pytest.approx(amp * one_minus_e, rel=1e-13, abs=0.0)
