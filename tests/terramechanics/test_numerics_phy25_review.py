@@ -10,12 +10,14 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from scipy.integrate import quad
 
 from terrain.terramechanics.catalogue import TERRAINS
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.lateral import SOILS, contact_chord_m, wheel_sinkage_m
 from terrain.terramechanics.resistance import bekker_sinkage_m
-from terrain.terramechanics.traction import brixius_traction
+from terrain.terramechanics.slip import ground_speed_from_slip, rim_speed_from_slip, sae_slip
+from terrain.terramechanics.traction import brixius_traction, patch_mobilisation
 
 #: Wong, Theory of Ground Vehicles, 4th ed., Table 2.3: heavy clay, 40 % moisture
 #: (n = 0.11, k_c = 1.84 kN/m^(n+1), k_phi = 103.27 kN/m^(n+2), c = 20.69 kPa, phi = 6 deg).
@@ -78,3 +80,43 @@ def test_brixius_traction_keeps_its_digits_at_small_slip(slip, mobility):
     amp = 0.88 * -math.expm1(-0.1 * mobility)
     mu = brixius_traction(np.array([slip]), mobility)[0][0]
     assert mu == pytest.approx(amp * one_minus_e, rel=1e-13, abs=0.0)
+
+
+def _hump_shear(u, residual_ratio):
+    """Wong's hump-type shear curve f(u) (ch. 2.4), written from its definition."""
+    b = 1.0 / (residual_ratio * (1.0 - math.exp(-1.0))) - 1.0
+    return residual_ratio * (1.0 + b * math.exp(1.0 - u)) * -math.expm1(-u)
+
+
+@settings(max_examples=60, deadline=None)
+@given(log_a=st.floats(-9.0, 2.5), residual_ratio=st.one_of(st.none(), st.floats(0.05, 0.95)))
+def test_patch_mobilisation_is_the_patch_mean_of_the_shear_curve_by_quadrature(
+        log_a, residual_ratio):
+    # the closed forms and their series (below 1e-4) against the patch integral itself,
+    # (1 / a) int_0^a tau(j) / tau_max d(j / K), by adaptive quadrature
+    a = 10.0 ** log_a
+    if residual_ratio is None:
+        def curve(x):
+            return -math.expm1(-x)
+    else:
+        kr = residual_ratio
+        s0 = kr * (1.0 + (1.0 / (kr * (1.0 - math.exp(-1.0))) - 1.0) * math.e)   # f'(0)
+
+        def curve(x):
+            return _hump_shear(x / s0, kr)
+    reference = quad(curve, 0.0, a, epsabs=0.0, epsrel=1e-13, limit=200)[0] / a
+    g = patch_mobilisation(np.array([a]), residual_ratio)[0][0]
+    assert g == pytest.approx(reference, rel=1e-8, abs=0.0)
+
+
+@settings(max_examples=200, deadline=None)
+@given(log_speed=st.floats(-9.0, 6.0), backwards=st.booleans(),
+       slip=st.floats(-0.999, 0.999))
+def test_rim_speed_from_slip_is_undone_by_sae_slip_at_any_speed_magnitude(
+        log_speed, backwards, slip):
+    # 1 nm/s to 1000 km/s: the inverse pair keeps the slip to a few ulps (no floor, no
+    # dead band), in both directions of travel
+    v = (-1.0 if backwards else 1.0) * 10.0 ** log_speed
+    rim = rim_speed_from_slip(v, slip)[0]
+    assert float(sae_slip(rim, v, dead_band_m_s=0.0)) == pytest.approx(slip, abs=1e-14)
+    assert float(ground_speed_from_slip(rim, slip)) == pytest.approx(v, rel=1e-12)
