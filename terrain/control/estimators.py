@@ -284,7 +284,9 @@ class AgriMaRoVisualOdometryEKF:
         """Least-squares slope of the estimated speeds of the last ``speed_slope_s``, m/s^2
         per unit (:func:`numpy.polyfit`, degree 1); ``a_state`` while fewer than three calls
         at two distinct times are in the window, and at a call of non-finite time (not
-        added to the window).
+        added to the window). The window keeps the call exactly ``speed_slope_s`` back,
+        within the clock's rounding (:func:`terrain.run.clock_slack`: the same calls on any
+        clock's origin).
 
         Parameters
         ----------
@@ -303,7 +305,9 @@ class AgriMaRoVisualOdometryEKF:
         if not math.isfinite(t):   # NaN stayed at the head for good: a LinAlgError at once
             return a_state
         speeds.append((t, np.asarray(v_long, dtype=float).copy()))
-        while speeds[0][0] < t - self.speed_slope_s - 1e-9:
+        # the call exactly speed_slope_s back stays, within the clock's rounding (1 ns alone:
+        # on an epoch clock it was kept or dropped by the clock's origin)
+        while speeds[0][0] < t - self.speed_slope_s - clock_slack(t):
             speeds.popleft()
         times = np.array([s[0] for s in speeds])
         if len(speeds) < 3 or times[0] == times[-1]:
