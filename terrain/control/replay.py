@@ -18,7 +18,7 @@ import pandas as pd
 
 from terrain.errors import (ClockError, ConfigError, DataFormatError, MissingColumnError,
                             NonNumericError, config_numbers)
-from terrain.run import TIME, Run, times_out_of_order
+from terrain.run import TIME, Run, clock_slack, times_out_of_order
 from terrain.sim.closed_loop import Observation
 
 
@@ -57,12 +57,13 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
     would have received them.
 
     Calls are at ``t0, t0 + 1/rate, ...`` from the later of the two streams' first samples
-    (``t0``) to the earlier of their last; each call carries the samples after the previous
-    call up to and including its own time (the first call also those at ``t0``); a sample
-    stamped after a call's time by the clock's rounding alone (2.4e-7 s on an epoch clock,
-    a sample logged at the call's time) goes to the next call: no call receives a sample
-    stamped after it, whose age would be negative. Wheel
-    speeds become encoder rates ``vel / r``; currents are reported as magnitudes, as the
+    (``t0``) to the earlier of their last (a call on it, within the clock's rounding,
+    :func:`terrain.run.clock_slack`, is made on any clock's origin); each call carries the
+    samples after the previous call up to and including its own time (the first call also
+    those at ``t0``); a sample stamped after a call's time by the clock's rounding alone
+    (2.4e-7 s on an epoch clock, a sample logged at the call's time) goes to the next call:
+    no call receives a sample stamped after it, whose age would be negative. Wheel speeds
+    become encoder rates ``vel / r``; currents are reported as magnitudes, as the
     loop's drives report them. Both IMU views carry the logged samples: ``imu_full`` all six
     channels, ``imu`` its ``ax, ay, wz``, with the gravity and the vibration that the
     simulated loop's ``imu`` leaves out (a real IMU has no clean view). The low-level
@@ -143,7 +144,10 @@ def measured_observations(run: Run, wheel_radius_m: float, control_rate_hz: floa
                          f"time (imu {imu[0, 0]:.2f}-{imu[-1, 0]:.2f} s, wheels "
                          f"{wh[0, 0]:.2f}-{wh[-1, 0]:.2f} s)", path=run.source or None)
     period = 1.0 / control_rate_hz
-    last = int(np.floor((t1 - t0) / period + 1e-9))
+    # the call at t1 itself is made within the clock's rounding (1e-9 periods alone: on an
+    # epoch clock t1 - t0 rounds by 2.4e-7 s, and the last call was lost by the origin)
+    slack = float(clock_slack(max(abs(t0), abs(t1))))
+    last = int(np.floor((t1 - t0 + slack) / period + 1e-9))
     data = {"imu": imu, "wheels": wheels, "currents": currents, "imu_full": full}
     before = {name: int(np.searchsorted(data[name][:, 0], t0, side="left"))
               for name in ("imu", "wheels")}
