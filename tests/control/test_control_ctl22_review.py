@@ -7,9 +7,19 @@ seeds.
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from control_helpers import observation
+from terrain.control.traction import (SlipTargets, TractionControlConfig, TractionState,
+                                      traction_control_step)
 
 EPOCH_S = 1.7e9   # a robot's log stamped in Unix time
 
@@ -96,3 +106,123 @@ def test_replay_keeps_the_call_count_of_the_shipped_runs():
         old = int(np.floor((t1 - t0) / 0.02 + 1e-9))
         replay = measured_observations(run, 0.165, 50.0)
         assert sum(1 for _ in replay) == old + 1, run.run_id
+
+
+# --- the traction PID over an hour of a saturated actuator --------------------------------------
+
+def _saturate(cfg, seconds, dt=0.2):
+    """``seconds`` of a wheel spinning far beyond its target (slip 0.95, traction 0.1): the
+    correction saturates at its room; the state after it."""
+    state = TractionState.zeros(1)
+    targets = SlipTargets(0.1, -0.15, 0.05)
+    for _ in range(int(round(seconds / dt))):
+        out, state = traction_control_step(cfg, state, targets, np.array([10.0]),
+                                           np.array([20.0]), np.array([1.0]), np.zeros(1),
+                                           1.0, dt)
+    return out, state
+
+
+@pytest.mark.parametrize("one_sided", [True, False])
+def test_an_hour_saturated_winds_the_integral_up_no_further_than_a_minute(one_sided):
+    """Conditional integration: while the output sits at its limit the integral holds the
+    value that just reaches it. After an hour of saturation (18 000 steps of 0.2 s, the
+    error never changes) the state is the state after a minute, bit for bit, and the
+    output is exactly at the room's edge (the command at 0: the wheel held still)."""
+    cfg = TractionControlConfig(kp=1.0, ki=10.0, kd=0.5, one_sided=one_sided)
+    out_min, minute = _saturate(cfg, 60.0)
+    out_hour, hour = _saturate(cfg, 3600.0)
+    for a, b in zip(minute, hour):
+        np.testing.assert_array_equal(a, b)
+    assert out_hour.correction_rad_s[0] == -10.0 and out_hour.omega_cmd_rad_s[0] == 0.0
+    # p + I + d is the limit exactly: nothing left to unwind beyond it
+    assert cfg.kp * out_hour.error[0] + hour.integral[0] - cfg.kd * hour.derivative[0] \
+        == pytest.approx(-10.0, abs=1e-12)
+
+
+# --- derivative kick on a target step ------------------------------------------------------------
+
+@settings(max_examples=60, deadline=None)
+@given(kd=st.floats(0.01, 5.0), slip_v=st.floats(0.3, 0.9),
+       traction=st.floats(0.05, 0.5), braking=st.floats(-0.5, -0.05))
+def test_a_target_step_moves_the_output_by_kp_times_the_step_only(kd, slip_v, traction,
+                                                                  braking):
+    """Derivative on the measured slip: when the acceleration switches the mode from
+    traction to braking (the target steps from +traction to braking) with the wheel's slip
+    unchanged, the derivative term is unchanged and the output (ki 0, two-sided, far from
+    its limits) moves by kp times the target step alone, no kick."""
+    cfg = TractionControlConfig(kp=2.0, ki=0.0, kd=kd, one_sided=False,
+                                omega_max_rad_s=1000.0, output_fraction=1.0)
+    targets = SlipTargets(traction, braking, 0.0)
+    omega = np.array([10.0])
+    v = np.array([10.0 * (1.0 - slip_v)])
+    state = TractionState.zeros(1)
+    for acc in (1.0, 1.0, 1.0):   # traction: the wheel's slip settles (constant)
+        out_t, state = traction_control_step(cfg, state, targets, omega, omega, v,
+                                             np.array([acc]), 1.0, 0.02)
+    out_b, after = traction_control_step(cfg, state, targets, omega, omega, v,
+                                         np.array([-1.0]), 1.0, 0.02)
+    assert out_t.mode[0] == 1 and out_b.mode[0] == -1
+    assert after.derivative[0] == state.derivative[0]
+    step = out_b.desired_slip[0] - out_t.desired_slip[0]
+    assert out_b.correction_rad_s[0] - out_t.correction_rad_s[0] == pytest.approx(
+        cfg.kp * step, abs=1e-9)
+
+
+# --- the loop's PID on an epoch clock: intervals from differences --------------------------------
+
+class _Constant:
+    """An estimator whose wheel slips at 0.5 against a ground speed of 1 m/s, always fresh."""
+
+    name = "constant"
+    limits = "none"
+
+    def update(self, obs):
+        from terrain.control.estimators import VelocityEstimate
+
+        return VelocityEstimate(np.array([2.0, 2.0]), np.array([1.0, 1.0]), np.zeros(2), 1.0,
+                                0.0)
+
+
+def _loop_integral(origin: float, calls: int = 500):
+    from terrain.control.closed_loop import TractionLoop
+    from terrain.control.desired_slip import build_slip_table
+
+    cfg = TractionControlConfig(kp=0.0, ki=1.0, wheel_radius_m=1.0, one_sided=False,
+                                omega_max_rad_s=1000.0, output_fraction=1.0)
+    loop = TractionLoop(cfg, 2, _Constant(), build_slip_table(["ASPHALT"]),
+                        lambda t: ("ASPHALT", 1.0), feed_forward=False)
+    for k in range(calls):
+        loop(observation(origin + k * 0.01, np.full(2, 2.0)))
+    return loop.controller.state.integral
+
+
+@pytest.mark.parametrize("origin", [EPOCH_S, EPOCH_S + 0.013, 1.6e9 + 0.37])
+def test_the_loop_integrates_the_same_error_on_an_epoch_clock(origin):
+    """The loop's intervals are differences of call times: on an epoch clock each rounds by
+    2.4e-7 s (2.4e-5 of a 100 Hz period), which must not add up: the integral over 5 s of
+    a constant error equals the one on a clock from 0 within 1e-5 (relative)."""
+    ref = _loop_integral(0.0)
+    assert np.all(np.abs(ref) > 0.1)
+    np.testing.assert_allclose(_loop_integral(origin), ref, rtol=1e-5)
+
+
+# --- tuning: the same seeds give the same table, in another process too --------------------------
+
+_TUNE = ("from terrain.control.grid import tune_gains; "
+         "best, table = tune_gains('husky', ['SNOW'], [2.0], [5.0], duration_s=0.3, "
+         "seeds=[1000]); print(repr(best)); print(table.to_json(double_precision=15))")
+
+
+def test_tuning_is_reproducible_in_a_fresh_process_with_another_hash_seed():
+    """tune_gains on the same seeds: the same best gains and the same table, bit for bit,
+    in this process and in a fresh one with another PYTHONHASHSEED (no set or dict order of
+    strings, no global random stream, no clock in the result)."""
+    from terrain.control.grid import tune_gains
+
+    best, table = tune_gains("husky", ["SNOW"], [2.0], [5.0], duration_s=0.3,
+                             seeds=[1000])
+    here = f"{best!r}\n{table.to_json(double_precision=15)}\n"
+    env = dict(os.environ, PYTHONHASHSEED="12345")
+    got = subprocess.run([sys.executable, "-c", _TUNE], capture_output=True, text=True,
+                         env=env, timeout=120, check=True).stdout
+    assert got == here
