@@ -27,7 +27,7 @@ from terrain.errors import ConfigError, ShapeError, TimeStepError, config_number
 from terrain.estimation.ekf import Gate, as_covariance, as_vector, correct, project_to_bounds
 from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult, LoopArrays
-from terrain.run import step_index, times_out_of_order
+from terrain.run import clock_slack, step_index, times_out_of_order
 from terrain.vehicles.common import float_arrays
 
 #: Engines of :func:`run_filter`.
@@ -352,7 +352,10 @@ def samples_inside(t_grid: np.ndarray, t_s: np.ndarray, first_step_s: float | No
     """Which samples :func:`run_filter` may use: those after the step before the first
     (``t_0 - dt``, taken at the first step) and at or before the last step, both within the
     slack of the placement rule of :func:`sample_steps` (a sample at ``t_0 - dt`` belongs to
-    that step, which is not the grid's); the others are counted as ``outside``.
+    that step, which is not the grid's); the others are counted as ``outside``. The slack
+    is :func:`terrain.run.clock_slack` of the sample's time, as the placement rule's (1 ns
+    below 2**17 s; 64 units in the last place beyond, where a fixed 1 ns is below one
+    rounding of the clock).
 
     Parameters
     ----------
@@ -371,7 +374,10 @@ def samples_inside(t_grid: np.ndarray, t_s: np.ndarray, first_step_s: float | No
     t = np.asarray(t_s, dtype=float)
     step0 = (first_step_s if first_step_s is not None
              else t_grid[1] - t_grid[0] if t_grid.size > 1 else 1.0)
-    return (t > t_grid[0] - step0 + 1e-9) & (t <= t_grid[-1] + 1e-9)
+    # the placement rule's slack, not a fixed 1 ns (below one rounding of an epoch clock:
+    # the last sample a ulp late was outside, though sample_steps put it on the last step)
+    slack = clock_slack(t)
+    return (t > t_grid[0] - step0 + slack) & (t <= t_grid[-1] + slack)
 
 
 def _place(t_grid: np.ndarray, samples: SensorSamples, width: int, name: str,

@@ -1,0 +1,50 @@
+"""Numerical review (est25): the estimation package on valid input far from the usual
+magnitudes (epoch clocks, badly scaled covariances, long runs)."""
+
+import numpy as np
+from hypothesis import given, settings, strategies as st
+
+from terrain.estimation.runner import make_grid, sample_steps, samples_inside
+from terrain.run import clock_slack
+
+#: An epoch clock (s since 1970): one unit in the last place is 2.4e-7 s there.
+EPOCH_S = 1.7e9
+
+
+# -- which samples the filter may use, on any clock ------------------------------------------
+
+@settings(max_examples=60, deadline=None)
+@given(t0=st.sampled_from((0.0, 1e3, 1e6, EPOCH_S, 4e9)),
+       rate=st.sampled_from((6.5, 30.0, 100.0, 200.0)), n=st.integers(2, 400),
+       ulps=st.integers(-8, 8))
+def test_samples_inside_agrees_with_the_placement_rule_at_both_ends_of_the_grid(t0, rate, n,
+                                                                                ulps):
+    # a sample a few units in the last place off the last step (or off the step before the
+    # first) belongs to that step by the placement rule (within terrain.run.clock_slack);
+    # samples_inside used a fixed 1 ns, below one rounding of an epoch clock, so the last
+    # sample of a run, rounded one ulp late, was counted as outside (dropped) while
+    # sample_steps put it on the last step, and one a ulp after the step before the grid was
+    # used at the first step though the rule puts it on that earlier step
+    grid = make_grid(t0, t0 + (n - 1) / rate, rate)
+    step0 = grid[1] - grid[0]
+    last = grid[-1]
+    before = grid[0] - step0
+    t = np.array([last, before])
+    for _ in range(abs(ulps)):
+        t = np.nextafter(t, np.inf if ulps > 0 else -np.inf)
+    inside = samples_inside(grid, t)
+    steps = sample_steps(grid, t)
+    # by the rule: the last sample is inside iff its step is a grid step
+    assert inside[0] == (steps[0] < grid.size)
+    # by the rule: within the slack of the step before the first it is that step's (outside)
+    on_before = abs(t[1] - before) <= clock_slack(t[1])
+    assert inside[1] == (not on_before and t[1] > before)
+
+
+def test_on_an_epoch_clock_the_last_sample_one_ulp_late_is_used_on_the_last_step():
+    grid = make_grid(EPOCH_S, EPOCH_S + 1.0, 100.0)
+    late = np.nextafter(grid[-1], np.inf)
+    early_first = np.nextafter(grid[0] - 0.01, np.inf)
+    assert samples_inside(grid, np.array([late])).all()
+    assert sample_steps(grid, np.array([late]))[0] == grid.size - 1
+    assert not samples_inside(grid, np.array([early_first])).any()
