@@ -48,7 +48,7 @@ from terrain.estimation.model import StateSpaceModel
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, run_filter, sample_steps,
                                        samples_inside)
-from terrain.run import step_index
+from terrain.run import clock_slack, step_index
 from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
@@ -494,8 +494,9 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
     hold_s : float
         Each step's range also covers the ranges of the steps of the last ``hold_s``
         seconds, the window ``(t - hold_s, t]``, s, >= 0 (0: the latest sample's alone): a
-        step ``hold_s`` back (to 1 ns) is outside it, so a hold of ``k`` grid steps covers
-        the step and the ``k - 1`` before it.
+        step ``hold_s`` back (to the placement rule's slack, :func:`terrain.run.clock_slack`:
+        1 ns below 2**17 s, 64 units in the last place on an epoch clock) is outside it, so
+        a hold of ``k`` grid steps covers the step and the ``k - 1`` before it.
 
     Returns
     -------
@@ -538,12 +539,16 @@ def speed_bounds_m_s(t_grid_s: np.ndarray, wheels: SensorSamples | None,
         # on a clock of whole ns, the window 1 ns shorter: a step hold_s back (to the
         # rounding of the clock) is outside it (the float seconds cut to ns put it in or out
         # by their rounding: a hold of 3 steps at 30 Hz held 3 or 4)
+        # (shorter by the placement rule's slack, terrain.run.clock_slack, where a clock's
+        # rounding exceeds 1 ns: on an epoch clock steps lie hundreds of ns off their
+        # nominal times, and the step hold_s back was inside the window on half the steps)
+        slack_ns = max(1, int(round(float(clock_slack(np.abs(t_grid_s).max())) * 1e9)))
         clock = pd.to_timedelta(np.round((t_grid_s - t_grid_s[0]) * 1e9).astype(np.int64),
                                 unit="ns")
         window = pd.DataFrame({"back": np.where(held, -lower, 0.0),
                                "ahead": np.where(held, upper, 0.0),
                                "none": np.where(held, 0.0, 1.0)}, index=clock).rolling(
-            pd.Timedelta(max(int(round(hold_s * 1e9)) - 1, 1), unit="ns")).max()
+            pd.Timedelta(max(int(round(hold_s * 1e9)) - slack_ns, 1), unit="ns")).max()
         unbounded = window["none"].to_numpy() > 0.0
         lower = np.where(unbounded, -np.inf, -window["back"].to_numpy())
         upper = np.where(unbounded, np.inf, window["ahead"].to_numpy())

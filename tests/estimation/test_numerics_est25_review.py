@@ -4,7 +4,8 @@ magnitudes (epoch clocks, badly scaled covariances, long runs)."""
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
-from terrain.estimation.runner import make_grid, sample_steps, samples_inside
+from terrain.estimation.runner import (SensorSamples, make_grid, sample_steps,
+                                       samples_inside)
 from terrain.run import clock_slack
 
 #: An epoch clock (s since 1970): one unit in the last place is 2.4e-7 s there.
@@ -48,3 +49,23 @@ def test_on_an_epoch_clock_the_last_sample_one_ulp_late_is_used_on_the_last_step
     assert samples_inside(grid, np.array([late])).all()
     assert sample_steps(grid, np.array([late]))[0] == grid.size - 1
     assert not samples_inside(grid, np.array([early_first])).any()
+
+
+# -- the hold window of the speed bound on an epoch clock ------------------------------------
+
+@settings(max_examples=40, deadline=None)
+@given(t0=st.sampled_from((0.0, 1e6, EPOCH_S)),
+       rate=st.sampled_from((15.0, 30.0, 50.0, 100.0)), k=st.integers(1, 8),
+       j=st.integers(0, 40))
+def test_a_rim_spike_widens_the_speed_bound_over_exactly_hold_s_on_any_clock(t0, rate, k, j):
+    # hold_s = k steps covers the step and the k - 1 before it; on an epoch clock the step
+    # exactly hold_s back (off it by the clock's rounding, hundreds of ns) was inside the
+    # window of whole ns on about half the steps: a hold of 3 steps at 30 Hz held 4
+    from terrain.estimation.skid_steer_slip import speed_bounds_m_s
+    grid = make_grid(t0, t0 + 3.0, rate)
+    j = min(k + j, grid.size - k)
+    rim = np.full((grid.size, 2), 0.2)
+    rim[j] = 1.0
+    _, upper = speed_bounds_m_s(grid, SensorSamples(grid, rim), -0.5, 0.0, hold_s=k / rate)
+    widened = np.flatnonzero(upper > upper[k:].min() + 1e-12)
+    np.testing.assert_array_equal(widened[widened >= k], np.arange(j, j + k))
