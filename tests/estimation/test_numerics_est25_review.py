@@ -114,3 +114,35 @@ def test_one_precise_update_on_the_compiled_loop_stays_positive_semi_definite():
                 worst_compiled = min(worst_compiled, eig[0] / eig[-1])
     assert worst_numpy > -1e-10          # the reference: round-off
     assert worst_compiled > -1e-10
+
+
+# -- one hour of driving without a position reference ----------------------------------------
+
+def test_an_hour_without_camera_keeps_the_covariance_a_covariance_on_both_engines():
+    # one hour at 4 Hz (14 400 steps) with the IMU, wheels and steering but no camera:
+    # the position variances grow without bound (to 3.7e3 m^2 in a turn at 0.2 rad/s) while
+    # the steering angles stay at 2.5e-7 rad^2 (condition 1.5e10); both engines keep every
+    # covariance symmetric and positive definite and agree with each other at the end
+    from terrain.estimation.agrimaro import AgriMaRoModel, noise_derived_settings
+    from terrain.estimation.runner import run_filter
+    rng = np.random.default_rng(7)
+    n = 14_400
+    grid = make_grid(0.0, (n - 1) / 4.0, 4.0)
+    imu = np.column_stack([0.01 * rng.standard_normal((n, 2)), 0.2 + 0.001 * rng.standard_normal(n),
+                           0.05 * np.arange(n)])
+    samples = {"imu": SensorSamples(grid, imu),
+               "omega": SensorSamples(grid, 6.0 + 0.1 * rng.standard_normal((n, 3))),
+               "steer": SensorSamples(grid, 1e-3 * rng.standard_normal((n, 3)))}
+    model = AgriMaRoModel(settings=noise_derived_settings())
+    fast = run_filter(model, grid, samples, engine="numba", store_covariance=True)
+    ref = run_filter(model, grid, samples, engine="numpy", store_covariance=True)
+    for res in (fast, ref):
+        assert np.isfinite(res.x).all() and np.isfinite(res.P).all()
+        np.testing.assert_array_equal(res.P, np.swapaxes(res.P, 1, 2))
+        eig = np.linalg.eigvalsh(res.P[::200])
+        assert (eig[:, 0] > 0).all()
+        assert eig[-1, -1] > 1e9 * eig[-1, 0]        # badly conditioned by the end
+    scale = np.abs(ref.x).max(axis=0) + 1.0
+    assert (np.abs(fast.x - ref.x).max(axis=0) <= 1e-6 * scale).all()
+    np.testing.assert_allclose(fast.P[-1], ref.P[-1], rtol=1e-6, atol=1e-12 * np.abs(
+        ref.P[-1]).max())
