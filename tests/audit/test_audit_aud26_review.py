@@ -1,0 +1,102 @@
+"""Numerical robustness and determinism of the audit (review aud26).
+
+Part A: lag estimation and its drift on an epoch clock, against the same data near 0.
+Part B: bootstrap intervals drawn from a seeded generator: the same table gives the same
+interval, and one cell's interval does not depend on the other cells of the table.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings, strategies as st
+
+from terrain.audit.physics import PhysicsComparisonSettings, gain_table
+from terrain.audit.selection import bootstrap_gain
+from terrain.audit.timing import LagSettings, LagTrack, best_lag, estimate_lag_track
+
+EPOCH_S = 1.7e9
+KEY = ["terrain", "signal", "scope"]
+
+
+def _signal(t):
+    return np.sin(0.7 * t) + 0.5 * np.sin(1.9 * t + 1.0)
+
+
+@settings(max_examples=15, deadline=None)
+@given(lag=st.floats(-0.5, 0.5), scale=st.floats(0.3, 2.0))
+def test_a_lag_found_on_an_epoch_clock_is_the_one_found_near_zero(lag, scale):
+    """The same wheel and gyro records stamped 1.7e9 s later give the same lag (the clock's
+    last place there is 2.4e-7 s) and the planted one."""
+    t = np.arange(0.0, 40.0, 0.1)
+    ti = np.arange(-3.0, 43.0, 0.01)
+    x = _signal(t)
+    wz = scale * _signal(ti + lag)          # wheel sample at t describes the robot at t - lag
+    near = best_lag(t, x, ti, wz)
+    far = best_lag(t + EPOCH_S, x, ti + EPOCH_S, wz)
+    assert near[0] == pytest.approx(lag, abs=2e-3)
+    assert far[0] == pytest.approx(near[0], abs=1e-5)
+    assert far[2] == pytest.approx(near[2], rel=1e-5)
+    s = LagSettings(window_s=20.0, step_s=10.0)
+    a = estimate_lag_track(t, x, ti, wz, s)
+    b = estimate_lag_track(t + EPOCH_S, x, ti + EPOCH_S, wz, s)
+    np.testing.assert_allclose(b.lags_s, a.lags_s, atol=1e-5)
+    np.testing.assert_allclose(b.centres_s - EPOCH_S, a.centres_s, atol=1e-5)
+
+
+def test_the_lag_drift_on_an_epoch_clock_is_the_plain_least_squares_slope():
+    """The drift (a straight line through window centres 1.7e9 s from 0) is the centred
+    least-squares slope, not a slope lost to the ill-conditioned uncentred fit."""
+    c = np.arange(0.0, 600.0, 15.0)
+    lags = 0.1 + 0.002 * c / 60.0 + 5e-4 * np.sin(c)
+    cc = c - c.mean()
+    want = float(np.sum(cc * (lags - lags.mean())) / np.sum(cc * cc) * 60.0)
+    for t0 in (0.0, EPOCH_S):
+        track = LagTrack(c + t0, lags, np.ones_like(c), len(c))
+        assert track.drift_s_per_min() == pytest.approx(want, rel=1e-6)
+
+
+def _per_run(seed=0):
+    rng = np.random.default_rng(seed)
+    return pd.DataFrame([
+        {"run_id": f"x/{t}/{k:02d}", "terrain": t, "signal": s, "scope": "moving", "n": 100,
+         "sse_ref": rng.uniform(1, 10), "sse_new": rng.uniform(1, 10)}
+        for t in ("ASPHALT", "GRASS") for k in range(4) for s in ("wz", "cur")])
+
+
+def test_the_physics_gain_table_is_the_same_in_two_calls_and_moves_with_its_seed():
+    per_run = _per_run()
+    s = PhysicsComparisonSettings(n_bootstrap=200, seed=5)
+    pd.testing.assert_frame_equal(gain_table(per_run, s), gain_table(per_run, s))
+    other = gain_table(per_run, PhysicsComparisonSettings(n_bootstrap=200, seed=6))
+    assert not np.array_equal(other.gain_lo.to_numpy(), gain_table(per_run, s).gain_lo)
+    np.testing.assert_array_equal(other.gain.to_numpy(), gain_table(per_run, s).gain)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "gain_table draws every cell's resamples from one generator in the order the cells "
+    "come: a run's rows listed in another signal order, or another signal in the table, "
+    "moves a cell's interval (all/cur [-0.013, 0.281] alone [+0.001, 0.305]); a per-cell "
+    "stream would move the documented intervals of docs/audit_physics_v2_*.md"))
+def test_a_physics_gain_interval_does_not_depend_on_the_other_cells_of_the_table():
+    per_run = _per_run()
+    s = PhysicsComparisonSettings(n_bootstrap=200)
+    want = gain_table(per_run, s).sort_values(KEY).reset_index(drop=True)
+    # the same rows, each run's signals listed in the other order
+    got = gain_table(per_run.iloc[::-1], s).sort_values(KEY).reset_index(drop=True)
+    pd.testing.assert_frame_equal(got, want)
+    alone = gain_table(per_run[per_run.signal == "cur"], s).sort_values(KEY)
+    pd.testing.assert_frame_equal(alone.reset_index(drop=True),
+                                  want[want.signal == "cur"].reset_index(drop=True))
+
+
+def test_the_bootstrap_gain_is_the_same_for_generators_of_the_same_seed():
+    rng = np.random.default_rng(0)
+    ref, new, base = rng.uniform(1, 5, (3, 12))
+    strata = np.repeat(["A", "B", "C"], 4)
+    a = bootstrap_gain(ref, new, base, np.random.default_rng(7), 300, strata)
+    b = bootstrap_gain(ref, new, base, np.random.default_rng(7), 300, strata)
+    assert a == b
+    c = bootstrap_gain(ref, new, base, np.random.default_rng(8), 300, strata)
+    assert c[0] == a[0] and c[1] != a[1]
