@@ -416,15 +416,20 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
         vel_l = lowpass(vel_l, wheel_rate_hz, settings.input_cutoff_hz)
         vel_r = lowpass(vel_r, wheel_rate_hz, settings.input_cutoff_hz)
     dt = 1.0 / float(settings.physics_rate_hz)
-    t = t_w[0] + np.arange(int(np.floor((t_w[-1] - t_w[0]) / dt)) + 2) * dt
+    # the physics on the run's own clock from its first sample, ``k dt`` exactly: on an
+    # epoch clock ``t0 + k dt`` rounded at 1.7e9 s (2.4e-7 s apart), the integrator's step,
+    # read from the grid's first two times, was 0.005 s +- 1.1e-7 and the replay's time
+    # ran 2.3e-5 off the wheel clock (82 ms per hour at 200 Hz)
+    rel_w = t_w - t_w[0]
+    t = np.arange(int(np.floor(rel_w[-1] / dt)) + 2) * dt
     in_l, in_r = vel_l, vel_r
     step = speed_resolution(np.r_[vel_l, vel_r]) if settings.merge_subresolution else 0.0
     if step > 0:
         tie = np.abs(vel_r - vel_l) <= 1.01 * step
         mean = 0.5 * (vel_l + vel_r)
         in_l, in_r = np.where(tie, mean, vel_l), np.where(tie, mean, vel_r)
-    vl = np.interp(t, t_w, in_l)
-    vr = np.interp(t, t_w, in_r)
+    vl = np.interp(t, rel_w, in_l)
+    vr = np.interp(t, rel_w, in_r)
     b = float(vehicle.track_m)
     twist = np.column_stack([0.5 * (vl + vr), np.zeros_like(t), (vr - vl) / b])
     r_w = geometry.wheel_radius_m
@@ -433,7 +438,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
                     max_wheel_speed_rad_s=max(vehicle.motor.max_wheel_speed_rad_s,
                                               settings.speed_headroom * vmax / r_w))
     replayed = replace(vehicle, motor=motor)
-    phys = integrate(replayed, geometry, (terrain,), 1e12, t - t[0], twist, 0.0, 1.0,
+    phys = integrate(replayed, geometry, (terrain,), 1e12, t, twist, 0.0, 1.0,
                      physics=settings.physics)
     cur = reported_current_a(vehicle.motor, phys.torque, phys.omega, settings.physics)
     out = np.column_stack([phys.twist[:, 2], phys.accel_body, phys.twist[:, 0], cur])
@@ -442,7 +447,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     # the ends) dips below 0 where a current rises from rest; that dip is the filter's, not
     # the motor's
     out[:, 4:6] = np.maximum(out[:, 4:6], 0.0)
-    sampled = np.column_stack([np.interp(t_w, t, out[:, j]) for j in range(out.shape[1])])
+    sampled = np.column_stack([np.interp(rel_w, t, out[:, j]) for j in range(out.shape[1])])
     return Replay(run_id=run.run_id, terrain=terrain.name, vehicle=vehicle_name, track_m=b,
                   t_s=t_w, vel_l=vel_l, vel_r=vel_r, yaw_rate=sampled[:, 0],
                   ax=sampled[:, 1], ay=sampled[:, 2], v_x=sampled[:, 3],

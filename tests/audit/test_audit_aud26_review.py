@@ -100,3 +100,34 @@ def test_the_bootstrap_gain_is_the_same_for_generators_of_the_same_seed():
     assert a == b
     c = bootstrap_gain(ref, new, base, np.random.default_rng(8), 300, strata)
     assert c[0] == a[0] and c[1] != a[1]
+
+
+def _wheel_run(t0_s, duration_s=60.0, rate_hz=16.0):
+    """A Husky run turning and speeding up and down, wheel stamps ``t0_s + k / 16`` s
+    (exact in binary near 0 and at an epoch: the same relative clock at both)."""
+    from terrain.run import Run
+
+    t = np.arange(int(duration_s * rate_hz)) / rate_hz
+    v = 0.8 + 0.4 * np.sin(0.31 * t)
+    x = 0.9 * np.sin(0.53 * t) + 0.3 * np.sin(1.7 * t)
+    half = 0.5 * 0.555 * x
+    wheels = pd.DataFrame({"t_s": t0_s + t, "vel_l": v - half, "vel_r": v + half,
+                           "cur_l": 5.0 + np.abs(x), "cur_r": 5.0 + np.abs(x)})
+    return Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT", streams={"wheels": wheels})
+
+
+def test_a_replay_on_an_epoch_clock_is_the_replay_near_zero():
+    """The replay integrated on ``t0 + k dt`` rounded at the clock's magnitude: at 1.7e9 s
+    the physics step (read from the grid's first two times) was 0.005 s +- 1.1e-7, so the
+    simulated time ran 2.3e-5 off the wheel clock (82 ms per hour of run at 200 Hz), and
+    the replay of the same record moved with the clock's origin (yaw rate 8e-5 rad/s,
+    current 5e-4 A apart after 2 min). Stamps exact at both origins: the same replay."""
+    from terrain.audit.replay import ReplaySettings, replay_run
+
+    s = ReplaySettings(physics_rate_hz=200.0)
+    near = replay_run(_wheel_run(0.0), s)
+    far = replay_run(_wheel_run(EPOCH_S), s)
+    np.testing.assert_allclose(far.yaw_rate, near.yaw_rate, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(far.cur, near.cur, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(far.ax, near.ax, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(far.v_x, near.v_x, rtol=0, atol=1e-9)
