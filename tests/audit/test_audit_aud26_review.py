@@ -125,9 +125,29 @@ def test_a_replay_on_an_epoch_clock_is_the_replay_near_zero():
     from terrain.audit.replay import ReplaySettings, replay_run
 
     s = ReplaySettings(physics_rate_hz=200.0)
-    near = replay_run(_wheel_run(0.0), s)
-    far = replay_run(_wheel_run(EPOCH_S), s)
+    near = replay_run(_wheel_run(0.0, duration_s=30.0), s)
+    far = replay_run(_wheel_run(EPOCH_S, duration_s=30.0), s)
     np.testing.assert_allclose(far.yaw_rate, near.yaw_rate, rtol=0, atol=1e-9)
     np.testing.assert_allclose(far.cur, near.cur, rtol=0, atol=1e-9)
     np.testing.assert_allclose(far.ax, near.ax, rtol=0, atol=1e-9)
     np.testing.assert_allclose(far.v_x, near.v_x, rtol=0, atol=1e-9)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "select_group draws the gain resamples and the parameter refits from one generator: "
+    "the parameter interval of gyro_bias (n_param_bootstrap 20 both times) moves from "
+    "[0.00979, 0.01023] to [0.00961, 0.01024] when only n_bootstrap goes from 100 to 200; "
+    "separate streams would move the documented intervals of docs/audit_report*.md"))
+def test_a_parameter_interval_does_not_depend_on_the_number_of_gain_resamples():
+    from audit_helpers import synthetic_frame
+    from terrain.audit.selection import SelectionSettings, select_group
+
+    units = [[synthetic_frame(f"s/ASPHALT/{i}", seed=i, bias_rad_s=0.01, chi=1.5,
+                              noise=0.01)] for i in range(4)]
+
+    def intervals(n_bootstrap):
+        g = select_group(units, "yaw", "ASPHALT",
+                         SelectionSettings(n_bootstrap=n_bootstrap, n_param_bootstrap=20))
+        return {e.name: e.ci95 for e in g.effects}
+
+    assert intervals(100) == intervals(200)
