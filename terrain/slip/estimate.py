@@ -834,7 +834,13 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
     if rho is None:
         return t, mean, np.minimum(vp, vl)
     ap, al = wp / (wp + wl), wl / (wp + wl)
-    var = (ap * vp) ** 2 + (al * vl) ** 2 + 2.0 * rho * ap * al * vp * vl
+    if rho >= 0.0:
+        var = (ap * vp) ** 2 + (al * vl) ** 2 + 2.0 * rho * ap * al * vp * vl
+    else:
+        # the same variance as a square plus a part >= 0: a^2 + b^2 - 2 |rho| a b cancels
+        # where a ~ b (rho -1, two nearly equal stds) and rounding made it < 0, a NaN std
+        a, b = ap * vp, al * vl
+        var = (a - b) ** 2 + 2.0 * (1.0 + rho) * a * b
     return t, mean, np.maximum(np.sqrt(var), settings.min_std)
 
 
