@@ -474,10 +474,14 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
 
 def _in_start_frame(truth: pd.DataFrame, t0_s: float, t1_s: float) -> np.ndarray:
     """The truth position at ``t1_s`` in the frame of its pose at ``t0_s`` (origin there, x
-    along its heading; heading 0 without a ``yaw`` column), where dead reckoning starts."""
-    at = (lambda col, ts: float(np.interp(ts, truth[TIME], truth[col])))
-    d = np.array([at("x", t1_s) - at("x", t0_s), at("y", t1_s) - at("y", t0_s)])
-    yaw0 = at("yaw", t0_s) if "yaw" in truth.columns else 0.0
+    along its heading; heading 0 without a ``yaw`` column), where dead reckoning starts.
+    The heading is interpolated unwrapped: a heading wrapped to [-pi, pi) between samples
+    on either side of +-pi was interpolated to ~0, a start frame turned by pi."""
+    at = (lambda values, ts: float(np.interp(ts, truth[TIME], values)))
+    d = np.array([at(truth["x"], t1_s) - at(truth["x"], t0_s),
+                  at(truth["y"], t1_s) - at(truth["y"], t0_s)])
+    yaw0 = (at(np.unwrap(truth["yaw"].to_numpy(float)), t0_s) if "yaw" in truth.columns
+            else 0.0)
     c, s = np.cos(yaw0), np.sin(yaw0)
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]])
 

@@ -53,3 +53,42 @@ def test_fused_std_at_minus_one_correlation_in_bulk():
     _, _, std = pseudo_measurement(out, "fused", fs)
     assert not np.isnan(std).any()
     np.testing.assert_array_equal(std, 1e-5)
+
+
+def _westward_run(yaw_of_truth):
+    """A Husky driving 10 m straight due west (heading pi) at 1 m/s, wheels and truth exact;
+    the wheels start between two truth samples (truth at 10 Hz from t = -0.05 s)."""
+    import pandas as pd
+
+    from terrain.run import Run
+
+    t = np.arange(0.0, 10.0 + 1e-9, 0.01)
+    wheels = pd.DataFrame({"t_s": t, "vel_l": 1.0, "vel_r": 1.0})
+    tt = np.arange(-0.05, 10.2, 0.1)
+    # the heading wobbles around pi by 1e-3 rad, as a measured heading does
+    yaw = np.pi + 1e-3 * np.where(np.arange(tt.size) % 2, 1.0, -1.0)
+    truth = pd.DataFrame({"t_s": tt, "x": -tt, "y": 0.0, "yaw": yaw_of_truth(yaw)})
+    return Run("sim/ASPHALT/west/0", "sim", "ASPHALT", {"wheels": wheels, "truth": truth})
+
+
+def test_odometry_errors_read_a_wrapped_truth_heading_as_an_angle():
+    """A truth yaw wrapped to [-pi, pi) (as a logged heading is) straddling +-pi where dead
+    reckoning starts was interpolated as a number (pi - 1e-3 and -pi + 1e-3 gave ~0 rad),
+    the truth turned by pi into the start frame: exact odometry scored 200 % off. It is
+    read as an angle: the wrapped and the unwrapped heading give the same figures."""
+    import pandas as pd
+
+    from terrain.slip.evaluation import odometry_errors
+    from terrain.vehicles.skid_steer import HUSKY
+
+    meta = pd.DataFrame({"run_id": "sim/ASPHALT/west/0", "t_start_s": [0.0, 5.0],
+                         "t_end_s": [5.0, 10.0]})
+    pred = np.zeros((2, 4)) + [0, 0, 1, 0]
+    rows = [odometry_errors([_westward_run(f)], meta, pred, HUSKY.track_m,
+                            ["sim/ASPHALT/west/0"])
+            for f in (lambda y: y, lambda y: (y + np.pi) % (2 * np.pi) - np.pi)]
+    for out in rows:
+        assert out.loc[0, "plain_err_pct"] < 0.5
+    cols = ["plain_err_pct", "compensated_err_pct", "distance_m"]
+    np.testing.assert_allclose(rows[1][cols].to_numpy(float), rows[0][cols].to_numpy(float),
+                               rtol=1e-9, atol=1e-9)
