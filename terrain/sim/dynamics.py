@@ -341,6 +341,32 @@ def wheel_commands(vehicle, geometry: ContactGeometry, twist_cmd: np.ndarray
 #: Largest departure of a step of the time grid from its first step, as a fraction of it
 #: (rounding of a grid far from zero passes; a grid that is not uniform does not).
 GRID_STEP_TOLERANCE = 1e-3
+#: Relative departure of a grid's first step from its mean step above which the integrator
+#: takes the mean step (a clock far from 0 stores its times coarsely: 10 ms steps on an
+#: epoch clock, 1.7e9 s, are rounded to 2.4e-7 s, so the first step alone is 2.4e-5 off);
+#: below it, the first step (a grid from 0 such as ``arange(n) * dt`` keeps its own step).
+GRID_MEAN_STEP_DEPARTURE = 1e-9
+
+
+def grid_step(t_s: np.ndarray) -> float:
+    """The step of a uniform time grid: its first step, or its mean step where rounding of
+    the clock takes the first step away from it.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (n,)
+        Increasing, uniform (within :data:`GRID_STEP_TOLERANCE`) times, s (``n >= 2``).
+
+    Returns
+    -------
+    float
+        ``t_s[1] - t_s[0]``, or ``(t_s[-1] - t_s[0]) / (n - 1)`` where the two depart by
+        more than :data:`GRID_MEAN_STEP_DEPARTURE` of it (so the steps sum to the grid's
+        span), s.
+    """
+    first = float(t_s[1] - t_s[0])
+    mean = float(t_s[-1] - t_s[0]) / (len(t_s) - 1)
+    return mean if abs(first - mean) > GRID_MEAN_STEP_DEPARTURE * mean else first
 
 
 def _check_grid_and_commands(t_s: np.ndarray, twist_cmd: np.ndarray) -> np.ndarray:
@@ -439,7 +465,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     segment_length_m : float
         Distance between terrain changes, m (> 0; inf: the first terrain all along).
     t_s : ndarray, shape (n,)
-        Uniform, increasing time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``).
+        Uniform, increasing time grid, s (n >= 2: the step is ``t_s[1] - t_s[0]``, or the
+        mean step where the clock's rounding takes the first one away from it,
+        :func:`grid_step`).
     twist_cmd : ndarray, shape (n, 3)
         Commanded ``(v_x, v_y, yaw_rate)``, m/s, m/s, rad/s (``v_y`` 0 for a skid-steer).
     slope_rad : float
@@ -525,7 +553,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         # for a vehicle that does not steer, refused below)
         raise ConfigError(f"integrate.chi is a skid-steer's ICR expansion; this vehicle "
                           f"steers, so chi {chi} would change nothing: give 1")
-    dt = float(t_s[1] - t_s[0])
+    # the mean step where a clock far from 0 rounds the first one (an epoch grid)
+    dt = grid_step(np.asarray(t_s, dtype=float))
     n = len(t_s)
     nm = geometry.n_motors
     layout = contact_layout(geometry, vehicle.mass_kg, slope_rad, chi)

@@ -184,3 +184,23 @@ def test_a_ramp_at_the_friction_limit_of_ice_follows_the_converged_run_at_100_hz
     assert np.abs(p.twist[:, 0] - np.interp(p.t_s, ref.t_s, ref.twist[:, 0])).max() < 0.02
     assert np.abs(p.slip_motor[:, 0] - slip).max() < 0.03
     assert np.abs(p.accel_body[:, 0] - accel).max() < 0.05
+
+
+@pytest.mark.parametrize("t0", [1.7e9, 86_400.0 * 365])
+def test_a_grid_on_a_clock_far_from_zero_integrates_its_own_span(t0):
+    # an epoch clock (1.7e9 s) stores 10 ms steps to 2.4e-7 s: the first step alone (the
+    # integrator's step) was 0.0100002 s, 2.4e-5 too long for every step of the run (0.086 s
+    # of time and 8.6 cm at 1 m/s an hour); the run must be the one on the clock from 0
+    veh = get_vehicle("husky")
+    n = 2001
+    base = np.arange(n) * 0.01
+    shifted = t0 + base
+    assert shifted[1] - shifted[0] != 0.01 or t0 < 1e8
+    tw = np.zeros((n, 3))
+    tw[:, 0] = np.minimum(0.5 * base, 0.8)
+    runs = [integrate(veh, veh.contact_geometry(), (get_terrain("ASPHALT"),), np.inf, t, tw,
+                      0.0, 1.0) for t in (base, shifted)]
+    span = shifted[-1] - shifted[0]                       # the grid's own span, 20 s
+    assert abs(span - 20.0) < 1e-6
+    np.testing.assert_allclose(runs[1].pose, runs[0].pose, rtol=1e-7, atol=1e-9)
+    np.testing.assert_allclose(runs[1].accel_body, runs[0].accel_body, rtol=1e-6, atol=1e-9)
