@@ -98,7 +98,8 @@ SCHEDULE_TOLERANCE_S = 1e-9
 
 @dataclass
 class _Channel:
-    """A sensor's samples: due at ``n period_s`` (the product, not a running sum of periods,
+    """A sensor's samples: due at ``n period_s`` after the run's first time (the product, not
+    a running sum of periods,
     whose rounding drifted past :data:`SCHEDULE_TOLERANCE_S` after ~2170 s at 100 Hz and
     lost a sample), the rows taken since the controller's last call."""
 
@@ -201,9 +202,16 @@ class OnlineSensors:
         self._omega_prev = 0.0
         self._filtered: np.ndarray | None = None
         self._t_prev: float | None = None
+        # the run's first time: the schedules and outages count from it (a grid that does
+        # not start at 0 sampled every step until n period caught up with its clock)
+        self._t0: float | None = None
 
     def record(self, snap: PlantSnapshot) -> None:
         """Take the samples due at ``snap.t_s``.
+
+        Sample ``n`` of a sensor is due ``n`` periods after the first snapshot's time, and
+        the camera outages are placed from that time on (the run's clock need not start at
+        0; rows keep the snapshot's own time).
 
         Parameters
         ----------
@@ -213,8 +221,11 @@ class OnlineSensors:
         s, t = self.settings, snap.t_s
         dt = 0.0 if self._t_prev is None else t - self._t_prev
         self._t_prev = t
+        if self._t0 is None:
+            self._t0 = t
+        t_run = t - self._t0            # (t itself on a clock from 0)
         c = self.ch["imu"]
-        if c.due(t):
+        if c.due(t_run):
             n = self.rng.standard_normal(3)
             a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
             wz = snap.twist[2] + s.gyro_noise_rad_s * n[2]
@@ -240,14 +251,14 @@ class OnlineSensors:
             self._filtered = raw
         self._omega_prev = snap.omega
         c = self.ch["wheels"]
-        if c.due(t):
+        if c.due(t_run):
             r = self.vehicle.wheel_radius_m
             om = self._filtered
             if s.speed_quantum_m_s > 0:
                 om = quantise(om * r, s.speed_quantum_m_s) / r
             c.rows.append((t, *om.tolist()))
         c = self.ch["currents"]
-        if c.due(t):
+        if c.due(t_run):
             cur = reported_current_a(motor, np.asarray(snap.torque, dtype=float), snap.omega,
                                      self.physics)
             cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
@@ -256,13 +267,13 @@ class OnlineSensors:
         if not self.steered:
             return
         c = self.ch["steer"]
-        if c.due(t):
+        if c.due(t_run):
             # (a resolution of 0 is no quantisation, as in the batch model)
             d = quantise(snap.delta, s.steer_quantum_rad)
             c.rows.append((t, *d.tolist()))
         c = self.ch["cam"]
-        if c.due(t):
-            if any(a <= t < b for a, b in self.outages):
+        if c.due(t_run):
+            if any(a <= t_run < b for a, b in self.outages):
                 self.cam_rows_dropped += 1
             else:
                 lever = self.vehicle.camera_lever_arm_m
@@ -328,6 +339,9 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
               control_rate_hz: float) -> ControlHook:
     """Integrator hook: sensors every step, the controller at ``control_rate_hz``.
 
+    The ``n``-th call is due ``n`` periods after the first snapshot's time (the run's clock
+    need not start at 0).
+
     Parameters
     ----------
     sensors : OnlineSensors
@@ -360,7 +374,8 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
         raise ConfigError(f"make_hook.sensors must be OnlineSensors (record and take), got "
                           f"{type(sensors).__name__}")
     period = 1.0 / control_rate_hz
-    state = {"calls": 0, "t_s": -math.inf}
+    # t0: the run's first time, the n-th call is due n periods after it
+    state = {"calls": 0, "t_s": -math.inf, "t0": None}
 
     def hook(snap: PlantSnapshot) -> np.ndarray | None:
         if snap.t_s < state["t_s"]:
@@ -370,9 +385,12 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
                               f"{state['t_s']:g} s, now t = {snap.t_s:g} s; make a new hook "
                               f"(and OnlineSensors) for each run")
         state["t_s"] = snap.t_s
+        if state["t0"] is None:
+            state["t0"] = snap.t_s
         sensors.record(snap)
-        # the n-th call at n period (a running sum of periods drifts, _Channel)
-        if snap.t_s + SCHEDULE_TOLERANCE_S < state["calls"] * period:
+        # the n-th call at n period after the first time (a running sum of periods drifts,
+        # _Channel)
+        if snap.t_s - state["t0"] + SCHEDULE_TOLERANCE_S < state["calls"] * period:
             return None
         state["calls"] += 1
         return controller(sensors.take(snap.t_s, snap.omega_low_level))
@@ -494,6 +512,7 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     sensors = OnlineSensors(cfg.vehicle, settings, cfg.seed, cfg.duration_s, cfg.physics,
                             cfg.terrains)
     period, calls, n = 1.0 / control_rate_hz, 0, len(phys.t_s)
+    t0 = float(phys.t_s[0])            # calls n periods after the run's first time
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
                              phys.accel_body[k], phys.omega[k], phys.delta[k],
@@ -501,6 +520,6 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
                              float(phys.pitch[k]), float(phys.roll[k]),
                              int(phys.terrain_index[k]))
         sensors.record(snap)
-        if snap.t_s + SCHEDULE_TOLERANCE_S >= calls * period:
+        if snap.t_s - t0 + SCHEDULE_TOLERANCE_S >= calls * period:
             calls += 1
             yield sensors.take(snap.t_s, snap.omega_low_level)

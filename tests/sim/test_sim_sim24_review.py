@@ -204,3 +204,38 @@ def test_a_grid_on_a_clock_far_from_zero_integrates_its_own_span(t0):
     assert abs(span - 20.0) < 1e-6
     np.testing.assert_allclose(runs[1].pose, runs[0].pose, rtol=1e-7, atol=1e-9)
     np.testing.assert_allclose(runs[1].accel_body, runs[0].accel_body, rtol=1e-6, atol=1e-9)
+
+
+def _closed_loop_counts(t0: float) -> tuple:
+    """Controller calls and samples per channel of a 2 s Husky closed loop on the grid
+    ``t0 + k 0.01 s``, with the call times relative to ``t0``."""
+    from terrain.sim.closed_loop import make_hook
+
+    veh = get_vehicle("husky")
+    t = t0 + np.arange(201) * 0.01
+    tw = np.zeros((len(t), 3))
+    tw[:, 0] = 0.5
+    sensors = OnlineSensors("husky", DEFAULT_SENSORS["husky"], 3, 2.0)
+    calls, rows = [], {"imu": 0, "wheels": 0, "currents": 0}
+
+    def controller(obs):
+        calls.append(obs.t_s - t0)
+        for name in rows:
+            rows[name] += len(getattr(obs, name))
+        return None
+
+    integrate(veh, veh.contact_geometry(), (get_terrain("ASPHALT"),), np.inf, t, tw, 0.0,
+              1.0, hook=make_hook(sensors, controller, 10.0))
+    return np.array(calls), rows
+
+
+@pytest.mark.parametrize("t0", [1000.0, 86_400.0])
+def test_the_closed_loop_schedule_starts_at_the_grids_first_time(t0):
+    # the n-th sample and call were due at n period on a clock from 0: on a grid starting
+    # at 1000 s every step was due until n period caught up (the 10 Hz controller called at
+    # 100 Hz, 6.5 Hz wheels sampled at 100 Hz); the schedule must be the one from 0
+    calls0, rows0 = _closed_loop_counts(0.0)
+    calls, rows = _closed_loop_counts(t0)
+    assert len(calls0) == 21 and rows0["imu"] == 201
+    assert rows == rows0
+    np.testing.assert_allclose(calls, calls0, atol=1e-9)
