@@ -96,6 +96,13 @@ class Observation(NamedTuple):
 SCHEDULE_TOLERANCE_S = 1e-9
 
 
+def _schedule_tolerance(t_s: float) -> float:
+    """Tolerance of a schedule at clock time ``t_s``: :data:`SCHEDULE_TOLERANCE_S`, or two
+    units in the last place of ``t_s`` on a clock so far from 0 that it stores its times
+    more coarsely (an epoch clock, 1.7e9 s: 2.4e-7 s), s."""
+    return max(SCHEDULE_TOLERANCE_S, 2.0 * math.ulp(float(t_s)))
+
+
 @dataclass
 class _Channel:
     """A sensor's samples: due at ``n period_s`` after the run's first time (the product, not
@@ -108,9 +115,10 @@ class _Channel:
     rows: list
     taken: int = 0
 
-    def due(self, t_s: float) -> bool:
-        """Whether a sample is due at ``t_s``; if so, count it and schedule the next."""
-        if t_s + SCHEDULE_TOLERANCE_S < self.next_t:
+    def due(self, t_s: float, tolerance_s: float = SCHEDULE_TOLERANCE_S) -> bool:
+        """Whether a sample is due at ``t_s`` (within ``tolerance_s``); if so, count it and
+        schedule the next."""
+        if t_s + tolerance_s < self.next_t:
             return False
         self.taken += 1
         self.next_t = self.taken * self.period_s
@@ -224,8 +232,9 @@ class OnlineSensors:
         if self._t0 is None:
             self._t0 = t
         t_run = t - self._t0            # (t itself on a clock from 0)
+        tol = _schedule_tolerance(t)
         c = self.ch["imu"]
-        if c.due(t_run):
+        if c.due(t_run, tol):
             n = self.rng.standard_normal(3)
             a = snap.accel_body + self.accel_bias + s.accel_noise_m_s2 * n[:2]
             wz = snap.twist[2] + s.gyro_noise_rad_s * n[2]
@@ -251,14 +260,14 @@ class OnlineSensors:
             self._filtered = raw
         self._omega_prev = snap.omega
         c = self.ch["wheels"]
-        if c.due(t_run):
+        if c.due(t_run, tol):
             r = self.vehicle.wheel_radius_m
             om = self._filtered
             if s.speed_quantum_m_s > 0:
                 om = quantise(om * r, s.speed_quantum_m_s) / r
             c.rows.append((t, *om.tolist()))
         c = self.ch["currents"]
-        if c.due(t_run):
+        if c.due(t_run, tol):
             cur = reported_current_a(motor, np.asarray(snap.torque, dtype=float), snap.omega,
                                      self.physics)
             cur = np.abs(cur + s.current_noise_a * self.rng_current.standard_normal(cur.size))
@@ -267,12 +276,12 @@ class OnlineSensors:
         if not self.steered:
             return
         c = self.ch["steer"]
-        if c.due(t_run):
+        if c.due(t_run, tol):
             # (a resolution of 0 is no quantisation, as in the batch model)
             d = quantise(snap.delta, s.steer_quantum_rad)
             c.rows.append((t, *d.tolist()))
         c = self.ch["cam"]
-        if c.due(t_run):
+        if c.due(t_run, tol):
             if any(a <= t_run < b for a, b in self.outages):
                 self.cam_rows_dropped += 1
             else:
@@ -390,7 +399,7 @@ def make_hook(sensors: OnlineSensors, controller: Callable[[Observation], np.nda
         sensors.record(snap)
         # the n-th call at n period after the first time (a running sum of periods drifts,
         # _Channel)
-        if snap.t_s - state["t0"] + SCHEDULE_TOLERANCE_S < state["calls"] * period:
+        if snap.t_s - state["t0"] + _schedule_tolerance(snap.t_s) < state["calls"] * period:
             return None
         state["calls"] += 1
         return controller(sensors.take(snap.t_s, snap.omega_low_level))
@@ -520,6 +529,6 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
                              float(phys.pitch[k]), float(phys.roll[k]),
                              int(phys.terrain_index[k]))
         sensors.record(snap)
-        if snap.t_s - t0 + SCHEDULE_TOLERANCE_S >= calls * period:
+        if snap.t_s - t0 + _schedule_tolerance(snap.t_s) >= calls * period:
             calls += 1
             yield sensors.take(snap.t_s, snap.omega_low_level)
