@@ -27,7 +27,9 @@ random validation split is disabled: training runs a fixed epoch budget, or, wit
 ``early_stopping=True``, validates on whole runs held out of the training data given to
 ``fit`` (``groups`` required), which then take no part in the standardisation or the class
 weights either. Weights, shuffling and dropout draw from ``random_state`` in
-a forked torch RNG, so CPU training is deterministic; a CUDA device is used when present
+a forked torch RNG, so CPU training is deterministic for a given torch thread count
+(``n_threads``; another count changes the floating-point sums), fits in threads of one
+process included (they take turns on torch's global RNG); a CUDA device is used when present
 (``device="auto"``) and nothing requires one. skorch is handed the network's class and
 arguments, never an instance, so a net trained on a GPU loads and predicts on a CPU-only
 machine (skorch maps its ``module_`` to the available device; README, "Model comparison").
@@ -35,6 +37,7 @@ machine (skorch maps its ``module_`` to the available device; README, "Model com
 
 from __future__ import annotations
 
+import threading
 from typing import Sequence
 
 import numpy as np
@@ -142,6 +145,13 @@ def _torch_modules():
 
     from terrain.models.nets import Raw1dNet, Spectrogram2dNet
     return torch, Raw1dNet, Spectrogram2dNet
+
+
+#: Held by every fit while it seeds and draws from torch's process-wide RNG (weight
+#: initialisation and dropout draw from it): fits in threads of one process (joblib's
+#: threading backend) drew from one another's seeded stream and moved a seed's
+#: probabilities by up to 0.2; under this lock they run one at a time, as sequential fits.
+_TORCH_RNG_LOCK = threading.RLock()
 
 
 class _WindowCNN(ClassifierMixin, BaseEstimator):
@@ -347,7 +357,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         # torch.manual_seed reseeds every CUDA device too: fork their RNGs as well, so a
         # fit leaves the caller's random streams as it found them on a GPU machine too
         cuda = list(range(torch.cuda.device_count())) if torch.cuda.is_available() else []
-        with torch.random.fork_rng(devices=cuda):
+        with _TORCH_RNG_LOCK, torch.random.fork_rng(devices=cuda):
             torch.manual_seed(seed)
             if self.n_threads:
                 torch.set_num_threads(self.n_threads)
