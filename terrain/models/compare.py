@@ -33,7 +33,7 @@ import pandas as pd
 from terrain.errors import (ConfigError, NonFiniteInputError, config_integer, config_positive,
                             duplicated, refuse_missing)
 from terrain.models.cv import block_notes, cross_validate, grouped_units
-from terrain.models.ensemble import normalised_weights
+from terrain.models.ensemble import capped_at_one, normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
 from terrain.models.registry import MODELS, ModelConfig, cnn_kinds, cnn_seeds_for, make_model
 
@@ -418,7 +418,7 @@ def soft_vote(members: Sequence[pd.DataFrame], classes: Sequence[str],
             raise ConfigError("soft_vote needs predictions of the same folds and windows")
         total += wi * frame[cols].to_numpy(dtype=float)
     out = base.copy()
-    out[cols] = total
+    out[cols] = capped_at_one(total)     # as SoftVotingEnsemble.predict_proba
     out["predicted"] = np.asarray(classes, dtype=object)[total.argmax(axis=1)]
     return out
 

@@ -61,6 +61,27 @@ def normalised_weights(weights, n_members: int) -> np.ndarray:
     return w / w.sum()
 
 
+def capped_at_one(proba: np.ndarray) -> np.ndarray:
+    """Weighted sums of member probabilities with rounding above 1 taken back to 1.
+
+    Weights summing to 1 and members all certain of a window (probability 1) sum to
+    1 + 2e-16 for some weights (nine of 1/9 each), which scikit-learn's ``log_loss`` and
+    ``brier_score_loss`` refuse ("y_prob contains values greater than 1"). Only such
+    rounding excess is changed (in place); every other probability is kept bit for bit.
+
+    Parameters
+    ----------
+    proba : numpy.ndarray
+        ``(n_windows, n_classes)`` weighted sums of member probabilities.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``proba``, with every value above 1 set to 1.
+    """
+    return np.minimum(proba, 1.0, out=proba)
+
+
 def simplex_grid(n_members: int, step: float) -> np.ndarray:
     """Every weight vector on the simplex with coordinates in multiples of ``step``.
 
@@ -301,7 +322,7 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             if out is None:
                 out = np.zeros((proba.shape[0], len(self.classes_)))
             out[:, cols] += w * proba
-        return out
+        return capped_at_one(out)
 
     def predict(self, X) -> np.ndarray:
         """Label of the highest mean probability.

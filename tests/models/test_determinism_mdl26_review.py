@@ -39,3 +39,57 @@ def test_cnn_fits_in_threads_equal_sequential_fits():
         delayed(_proba)(s, X, y) for s in seeds)
     for a, b in zip(alone, threaded):
         np.testing.assert_array_equal(a, b)
+
+
+# ---- probabilities after averaging: in [0, 1], rows summing to 1 -------------------------
+
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+from sklearn.dummy import DummyClassifier  # noqa: E402
+from sklearn.metrics import brier_score_loss, log_loss  # noqa: E402
+
+from terrain.models.ensemble import SoftVotingEnsemble  # noqa: E402
+
+
+def test_nine_certain_members_average_to_probability_one_not_above():
+    """Nine members of weight 1/9 each certain of a window: the weighted sum rounded to
+    1.0000000000000002, which scikit-learn's log_loss and brier_score_loss refuse ("y_prob
+    contains values greater than 1"); a bag of nine CNNs (cnn_seeds=9) is such an
+    ensemble."""
+    X = np.zeros((6, 2))
+    y = np.array(["a", "a", "a", "a", "b", "b"])
+    members = [(f"m{i}", DummyClassifier(strategy="most_frequent")) for i in range(9)]
+    proba = SoftVotingEnsemble(members, weights=(1.0,) * 9).fit(X, y).predict_proba(X)
+    assert proba.max() <= 1.0
+    log_loss(y, proba, labels=["a", "b"])
+    brier_score_loss(y, proba[:, 1], pos_label="b")
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.integers(1, 50), min_size=2, max_size=10),
+       st.lists(st.sampled_from(["most_frequent", "prior", "uniform"]), min_size=10,
+                max_size=10))
+def test_ensemble_probabilities_stay_in_unit_interval(weights, strategies):
+    X = np.zeros((7, 1))
+    y = np.array(["a", "a", "b", "c", "c", "c", "c"])
+    members = [(f"m{i}", DummyClassifier(strategy=s))
+               for i, s in zip(range(len(weights)), strategies)]
+    proba = SoftVotingEnsemble(members, weights=[float(w) for w in weights]).fit(
+        X, y).predict_proba(X)
+    assert ((proba >= 0) & (proba <= 1)).all()
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=0, atol=4e-16)
+
+
+def test_soft_vote_of_nine_certain_members_stays_at_one():
+    """soft_vote (the grid's out-of-fold ensemble) is SoftVotingEnsemble's average: nine
+    certain members gave it 1.0000000000000002 too."""
+    import pandas as pd
+
+    from terrain.models.compare import soft_vote
+
+    frame = pd.DataFrame({"seed": 0, "fold": 0, "run": ["r1", "r2"], "t_start_s": [0.0, 1.0],
+                          "true": ["a", "b"], "predicted": ["a", "b"],
+                          "proba_a": [1.0, 0.0], "proba_b": [0.0, 1.0]})
+    out = soft_vote([frame] * 9, ["a", "b"])
+    assert out[["proba_a", "proba_b"]].to_numpy().max() <= 1.0
+    assert list(out["predicted"]) == ["a", "b"]
