@@ -442,7 +442,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         Returns
         -------
         numpy.ndarray
-            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``; float64 rows
+            summing to 1 within float64 rounding.
 
         Raises
         ------
@@ -485,7 +486,11 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                     out.append(torch.softmax(logits, dim=1).cpu().numpy())
         finally:
             torch.set_num_threads(threads)
-        return np.concatenate(out).astype(np.float64)
+        # the float32 softmax sums to 1 within ~1e-7 only, outside scikit-learn's float64
+        # tolerance (log_loss warned "do not sum to one"): each row is divided by its own
+        # float64 sum, which keeps its order (the decisions) and every value in [0, 1]
+        proba = np.concatenate(out).astype(np.float64)
+        return proba / proba.sum(axis=1, keepdims=True)
 
     def predict(self, X) -> np.ndarray:
         """Most probable terrain of each window.

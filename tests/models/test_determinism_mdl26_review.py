@@ -93,3 +93,22 @@ def test_soft_vote_of_nine_certain_members_stays_at_one():
     out = soft_vote([frame] * 9, ["a", "b"])
     assert out[["proba_a", "proba_b"]].to_numpy().max() <= 1.0
     assert list(out["predicted"]) == ["a", "b"]
+
+
+def test_cnn_probability_rows_sum_to_one_in_float64():
+    """The softmax was computed in float32 and handed out as float64: rows summed to 1 only
+    within ~1e-7, outside scikit-learn's tolerance (sqrt of float64's eps), so log_loss and
+    brier_score_loss warned "The y_prob values do not sum to one" on a CNN's output."""
+    import warnings
+
+    X, y, _ = _windows(n=64, seed=3)
+    model = RawCNNClassifier(max_epochs=2, batch_size=8, width=4, n_threads=1).fit(X, y)
+    for batch in (X, np.concatenate([X] * 2)):      # both inference paths (<= and > 64)
+        proba = model.predict_proba(batch)
+        np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=0, atol=4e-16)
+        assert ((proba >= 0) & (proba <= 1)).all()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            log_loss(np.concatenate([y] * (len(batch) // len(y))), proba, labels=["a", "b"])
+    # the decisions are those of the float32 softmax (a row is divided by its own sum)
+    assert (model.predict(X) == model.classes_[proba[:len(X)].argmax(axis=1)]).all()
