@@ -7,6 +7,7 @@ import pytest
 pytest.importorskip("torch")
 pytest.importorskip("skorch")
 
+import torch  # noqa: E402
 from joblib import Parallel, delayed  # noqa: E402
 
 from terrain.models.cnn import RawCNNClassifier  # noqa: E402
@@ -112,3 +113,22 @@ def test_cnn_probability_rows_sum_to_one_in_float64():
             log_loss(np.concatenate([y] * (len(batch) // len(y))), proba, labels=["a", "b"])
     # the decisions are those of the float32 softmax (a row is divided by its own sum)
     assert (model.predict(X) == model.classes_[proba[:len(X)].argmax(axis=1)]).all()
+
+
+# ---- the same seed, the same bits ----------------------------------------------------------
+
+def test_cnn_fit_after_another_fit_equals_the_fit_alone_and_survives_pickling():
+    import pickle
+
+    X, y, _ = _windows()
+    alone = _proba(5, X, y)
+    torch.manual_seed(123)
+    expected = torch.rand(3)
+    torch.manual_seed(123)
+    _proba(9, X, y, n_threads=2)                      # another seed, another thread count
+    after = RawCNNClassifier(max_epochs=2, batch_size=8, width=4, dropout=0.2,
+                             random_state=5, n_threads=1).fit(X, y)
+    np.testing.assert_array_equal(after.predict_proba(X), alone)
+    assert torch.equal(torch.rand(3), expected)       # the caller's stream untouched
+    np.testing.assert_array_equal(pickle.loads(pickle.dumps(after)).predict_proba(X), alone)
+    assert not np.array_equal(_proba(6, X, y), alone)  # the seed is not ignored
