@@ -1,11 +1,13 @@
 """Features review (ftr25): numerical robustness and determinism of the window features.
 
 Signals with a large mean and a small variation (the moments against a float128 two-pass
-reference), huge and tiny scales, float32 windows.
+reference), huge and tiny scales, float32 windows, band powers of pure tones, and the
+compiled kernel against its Python function and a fresh compilation.
 """
 
 from __future__ import annotations
 
+import numba
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -119,3 +121,68 @@ def test_window_features_of_float32_windows_equal_their_float64_values():
     X = (9.81 + 0.1 * rng.normal(size=(4, 3, 100))).astype(np.float32)
     wf = WindowFeatures(("ax", "ay", "az"), 50.0).fit(X)
     np.testing.assert_array_equal(wf.transform(X), wf.transform(X.astype(float)))
+
+
+# --- band powers of pure tones ------------------------------------------------------------------
+
+@settings(max_examples=40, deadline=None)
+@given(st.sampled_from([64, 100, 128, 250]), st.integers(2, 20),
+       st.sampled_from([1e-2, 1.0, 1e3]), st.floats(0.0, 2 * np.pi))
+def test_band_power_of_on_bin_sine_is_its_power(n, k, amplitude, phase):
+    # a tone on an FFT bin (k >= 2 cycles per window, away from DC and Nyquist) carries
+    # power A^2/2; the one-sided Hann-tapered density summed over the bins times their
+    # spacing gives it back (Parseval of the tapered periodogram: the Hann taper's leakage
+    # stays in the neighbouring bins, all inside one band covering the spectrum; at k = 1
+    # the squared taper's own two cycles beat with the tone's)
+    rate = 50.0
+    assume_k = min(k, n // 2 - 2)
+    f0 = assume_k * rate / n
+    x = amplitude * np.sin(2 * np.pi * f0 * np.arange(n) / rate + phase)
+    bands = ((0.0, rate / 2 + 1.0),)
+    density = 10 ** calculators.band_log_power(x[None, None], rate, bands)[0, 0, 0]
+    n_bins = n // 2 + 1
+    power = (density - 1e-12) * n_bins * rate / n
+    assert power == pytest.approx(amplitude ** 2 / 2, rel=1e-9)
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.sampled_from([1e-2, 1e3, 1e5]), st.integers(0, 2 ** 32 - 1))
+def test_band_log_power_scale_equivariant(c, seed):
+    # log10 density of c x is that of x plus 2 log10 c (well above the 1e-12 floor)
+    x = 10.0 * np.random.default_rng(seed).normal(size=(1, 2, 100))
+    bands = ((0.0, 5.0), (5.0, 12.5), (12.5, 25.0))
+    a = calculators.band_log_power(x, 50.0, bands)
+    b = calculators.band_log_power(c * x, 50.0, bands)
+    np.testing.assert_allclose(b, a + 2 * np.log10(c), rtol=0, atol=1e-6)
+
+
+# --- compiled kernels: the NumPy reference, fresh processes, numba caches ----------------------
+
+@settings(max_examples=40, deadline=None)
+@given(st.floats(-1e6, 1e6), st.sampled_from([1e-2, 1.0, 1e2]), st.integers(2, 400),
+       st.integers(0, 2 ** 32 - 1))
+def test_compiled_statistics_equal_their_python_function(offset, scale, n, seed):
+    # the numba kernel and its own Python function (the same code, interpreted) agree
+    x = offset + scale * np.random.default_rng(seed).normal(size=(3, n))
+    codes = np.arange(len(calculators._STATISTIC_NAMES), dtype=np.int64)
+    a = np.empty((3, len(codes)))
+    b = np.empty((3, len(codes)))
+    calculators._statistics_kernel(x, codes, a)
+    calculators._statistics_kernel.py_func(x, codes, b)
+    np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-13)
+
+
+def test_freshly_compiled_statistics_equal_the_cached_kernel():
+    # the kernel numba loads from its cache (cache=True) and one compiled anew from the same
+    # Python function give the same statistics to the last bit, on a signal far from 0
+    fresh = numba.njit(nogil=True, error_model="numpy")(
+        calculators._statistics_kernel.py_func)
+    rng = np.random.default_rng(5)
+    x = np.concatenate([9.81 + 1e-3 * rng.normal(size=(4, 200)),
+                        1e6 + rng.exponential(size=(4, 200))])
+    codes = np.arange(len(calculators._STATISTIC_NAMES), dtype=np.int64)
+    a = np.empty((len(x), len(codes)))
+    b = np.empty((len(x), len(codes)))
+    calculators._statistics_kernel(x, codes, a)
+    fresh(x, codes, b)
+    np.testing.assert_array_equal(a, b)
