@@ -186,3 +186,25 @@ def test_freshly_compiled_statistics_equal_the_cached_kernel():
     calculators._statistics_kernel(x, codes, a)
     fresh(x, codes, b)
     np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "the ridge of the wheel-physics current balance also penalises the no-load term c0, so "
+    "a current offset is not absorbed by c0 alone: +10 A on both sides moves "
+    "cur_sum__turn_a by 0.1 A and cur_sum__inertia_a_s2_per_m by 1e-3; an unpenalised "
+    "intercept would move the documented wheel-physics results, so it is left as it is"))
+def test_wheel_physics_current_offset_is_absorbed_by_the_no_load_term():
+    # I_L + I_R = c0 + c1 m_v + c2 |a| + c3 m_w: a constant added to both currents (a bias
+    # of the current sensors) belongs to c0; the load coefficients and residuals keep
+    from features.wheel_physics import PHYSICS_FEATURES, physics_features
+
+    rng = np.random.default_rng(0)
+    t = np.arange(60) / 10.0
+    vel_l = 0.5 + 0.2 * np.sin(t)[None] + 0.01 * rng.normal(size=(3, 60))
+    vel_r = vel_l + 0.1 * np.cos(t)
+    cur_l, cur_r = 5 + rng.normal(size=(3, 60)), 6 + rng.normal(size=(3, 60))
+    a = physics_features(vel_l, vel_r, cur_l, cur_r, 10.0)
+    b = physics_features(vel_l, vel_r, cur_l + 10.0, cur_r + 10.0, 10.0)
+    for name in ("cur_sum__inertia_a_s2_per_m", "cur_sum__turn_a", "cur_sum__resid_std_a"):
+        j = PHYSICS_FEATURES.index(name)
+        np.testing.assert_allclose(b[:, j], a[:, j], rtol=1e-9, atol=1e-9, err_msg=name)
