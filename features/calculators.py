@@ -40,17 +40,12 @@ def _statistics_kernel(x, codes, out):   # pragma: no cover - compiled
     NaN sample makes every statistic of its row NaN."""
     m, n = x.shape
     for r in range(m):
-        # the sum of the samples' offsets from the first one: a plain running sum rounded
-        # the mean of a signal far from 0 by up to n ulps of its value, an offset every
-        # central moment read as spread (a constant 1.7e9 + 0.3 over 1000 samples had
-        # std 3e-5, skewness -1 and kurtosis -2)
-        shift = x[r, 0] if abs(x[r, 0]) < np.inf else 0.0    # (an inf mean stays inf)
         total = total_sq = total_abs_diff = 0.0
         lo = hi = x[r, 0]
         has_nan = False
         for i in range(n):
             v = x[r, i]
-            total += v - shift
+            total += v
             total_sq += v * v
             if v < lo:
                 lo = v
@@ -60,24 +55,15 @@ def _statistics_kernel(x, codes, out):   # pragma: no cover - compiled
                 has_nan = True
             if i > 0:
                 total_abs_diff += abs(v - x[r, i - 1])
-        mu = shift + total / n
-        m1 = m2 = m3 = m4 = 0.0
+        mu = total / n
+        m2 = m3 = m4 = 0.0
         for i in range(n):
             d = x[r, i] - mu
             d2 = d * d
-            m1 += d
             m2 += d2
             m3 += d2 * d
             m4 += d2 * d2
-        # the moments about the float mean moved to the exact one, e = mean(d) (the
-        # corrected two-pass algorithm: e is a rounding residual, so nothing cancels)
-        e = m1 / n
         m2, m3, m4 = m2 / n, m3 / n, m4 / n
-        m4 = m4 - 4.0 * e * m3 + 6.0 * e * e * m2 - 3.0 * e ** 4
-        m3 = m3 - 3.0 * e * m2 + 2.0 * e ** 3
-        if e == e:     # (NaN from a NaN or infinite sample: those moments stay NaN)
-            m2 = max(m2 - e * e, 0.0)
-            mu += e
         varies = m2 > _EPS
         for k in range(codes.shape[0]):
             c = codes[k]
@@ -113,13 +99,7 @@ def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
       otherwise (tested against scipy, ``features/reference.py``);
     * ``mean_abs_diff``: ``mean(|x[i+1] - x[i]|)``, NaN for a one-sample window.
 
-    A NaN sample makes every statistic of its window and channel NaN. The mean is summed
-    as offsets from the window's first sample and the central moments are corrected to the
-    exact mean of the samples (the rounding of a plain running sum grew with the window's
-    length and level: 1000 samples of 1.7e9 + 0.3 read std 3e-5, skewness -1, kurtosis -2),
-    so a constant window reads its value and std 0 whatever its level, and the moments of
-    a signal far from 0 are those of a float128 two-pass reference to the rounding of the
-    samples themselves (tested, ``tests/features/test_features_ftr25_review.py``).
+    A NaN sample makes every statistic of its window and channel NaN.
 
     Parameters
     ----------
