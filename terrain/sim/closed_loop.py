@@ -50,7 +50,7 @@ from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specifi
 from terrain.sim.simulate import (DEFAULT_SENSORS, SimConfig, Simulation, is_name_sequence,
                                   simulate_with_physics)
 from terrain.terramechanics.catalogue import get_terrain
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import get_vehicle, point_velocity
 
 __all__ = ["Observation", "OnlineSensors", "make_hook", "replay_observations",
            "simulate_closed_loop"]
@@ -287,9 +287,10 @@ class OnlineSensors:
             else:
                 lever = self.vehicle.camera_lever_arm_m
                 vx, vy, w = snap.twist.tolist()
+                v_cx, v_cy = point_velocity(vx, vy, w, lever[0], lever[1])
                 n = self.rng.standard_normal(4)
-                c.rows.append((t, vx - w * lever[1] + s.cam_noise_m_s * n[0],
-                               vy + w * lever[0] + s.cam_noise_m_s * n[1],
+                c.rows.append((t, v_cx + s.cam_noise_m_s * n[0],
+                               v_cy + s.cam_noise_m_s * n[1],
                                w + s.cam_yaw_rate_noise_rad_s * n[2],
                                snap.pose[2] + s.cam_yaw_noise_rad * n[3]))
 

@@ -55,7 +55,7 @@ from terrain.sim.scenarios import (SCENARIO_NAMES, SCENARIO_SLOPES_RAD, make_com
 from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order_filter, imu,
                                  interp_columns, physics_step_index, quantise, sample_times)
 from terrain.terramechanics.catalogue import get_terrain
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import get_vehicle, point_velocity
 
 #: Sensor settings of each vehicle (read-only). The Husky's follow BorealTC
 #: (:class:`~terrain.sim.sensors.SensorSettings`); the AgriMaRo's 50 Hz wheel reports (its
@@ -529,9 +529,9 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
             {TIME: t_st, **{f"delta_{i + 1}": d[:, i] for i in range(geometry.n_motors)}})
         t_c = sample_times(duration, sensors.cam_rate_hz)
         s = interp_columns(t_c, phys.t_s, np.column_stack([phys.twist, phys.pose[:, 2]]))
-        lever = np.asarray(vehicle.camera_lever_arm_m)
-        v_cx = s[:, 0] - s[:, 2] * lever[1]              # v + omega x d (eq. 5.4 inverted)
-        v_cy = s[:, 1] + s[:, 2] * lever[0]
+        lever = vehicle.camera_lever_arm_m
+        # v + omega x d (eq. 5.4 inverted), the relation the EKF's h(x) uses
+        v_cx, v_cy = point_velocity(s[:, 0], s[:, 1], s[:, 2], lever[0], lever[1])
         nz = rng.standard_normal((len(t_c), 4))
         cam = pd.DataFrame({TIME: t_c, "v_cx": v_cx + sensors.cam_noise_m_s * nz[:, 0],
                             "v_cy": v_cy + sensors.cam_noise_m_s * nz[:, 1],
