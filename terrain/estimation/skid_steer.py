@@ -50,8 +50,9 @@ from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_time_
                                        make_grid, run_filter, sensor_groups, stream_overlap_s,
                                        stream_samples)
 from terrain.run import TIME, Run
+from terrain.vehicles import get_vehicle
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
-from terrain.vehicles.skid_steer import HUSKY
+from terrain.vehicles.skid_steer import HUSKY, HuskyParams, TrackedParams
 
 if TYPE_CHECKING:
     from terrain.estimation.fast import FastKernel
@@ -238,7 +239,7 @@ class SkidSteerModel(KernelModel):
                                           s.log_chi_psd), "second")
 
 
-def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSettings(), *,
+def estimate_skid_steer(run: Run, settings: SkidSteerSettings | None = None, *,
                         rate_hz: float | None = None, gate: Gate | None = None,
                         time_offsets_s: Mapping[str, float] | None = None,
                         store_covariance: bool = False) -> EKFResult:
@@ -251,9 +252,12 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         (``wz``, rad/s). Without IMU the filter runs on the wheels alone (``chi`` and the
         bias then stay at their prior: the wheels observe ``chi yaw_rate`` only, so ``chi``
         is a consider parameter at every yaw rate; so too with an IMU stream whose ``wz``
-        holds no finite value).
-    settings : SkidSteerSettings
-        Geometry and tuning.
+        holds no finite value). Its ``vehicle`` must be a skid-steer (``husky``,
+        ``tracked``).
+    settings : SkidSteerSettings, optional
+        Geometry and tuning; None (default): the defaults with the track of the run's
+        vehicle (:func:`terrain.vehicles.get_vehicle`: 0.5708 m for the Husky, 0.393 m for
+        the tracked vehicle), the geometry the simulator drives that vehicle with.
     rate_hz : float, optional
         Filter rate, Hz (default: the IMU rate, else the wheel rate). The grid spans the
         overlap of the streams used.
@@ -281,8 +285,13 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`), a key of ``time_offsets_s`` other than ``wheels`` and ``gyro``,
         or a latency that is not a finite real number (a boolean, text, None, NaN, inf;
-        :func:`~terrain.estimation.runner.check_time_offsets`).
+        :func:`~terrain.estimation.runner.check_time_offsets`); a run whose vehicle is not
+        a skid-steer (``agrimaro``: its ``wheels`` stream holds wheels 1 and 2 of a swerve
+        drive, not two sides) or unknown.
     """
+    # (the Husky's track served every run: a tracked run's chi read 1.03 for a true 1.44)
+    track_m = skid_steer_track_m(run)
+    settings = settings if settings is not None else SkidSteerSettings(track_m=track_m)
     if "wheels" not in run.streams:
         raise DataFormatError("a skid-steer run needs a wheels stream", run.source)
     off = check_time_offsets(time_offsets_s, SENSOR_ROWS)
@@ -313,6 +322,32 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings = SkidSteerSetting
     result.meta.update(model="skid-steer-4", track_m=settings.track_m,
                        time_offsets_s=off)
     return result
+
+
+def skid_steer_track_m(run: Run) -> float:
+    """Track width of the skid-steer vehicle that drove ``run``.
+
+    Parameters
+    ----------
+    run : Run
+        Its ``vehicle`` names the vehicle (:func:`terrain.vehicles.get_vehicle`).
+
+    Returns
+    -------
+    float
+        Geometric track width B, m (``track_m`` of the vehicle's parameters).
+
+    Raises
+    ------
+    ConfigError
+        An unknown vehicle, or one that is not a skid-steer (``agrimaro``).
+    """
+    params = get_vehicle(run.vehicle)
+    if not isinstance(params, (HuskyParams, TrackedParams)):
+        raise ConfigError(f"run {run.run_id}: vehicle {run.vehicle!r} is not a skid-steer "
+                          "vehicle (husky, tracked), whose left and right sides the skid-steer "
+                          "filter reads (the AgriMaRo's filter: estimate_agrimaro)")
+    return float(params.track_m)
 
 
 def wheel_r_scale(rate_hz: float, wheel_rate_hz: float | None) -> float:
