@@ -15,10 +15,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import ConfigError
+from terrain.estimation.equations.skid_steer_slip import (STANDARD_GRAVITY_M_S2,
+                                                          SkidSteerSlipEquationParams, h)
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
 from terrain.run import TIME, Run
 from terrain.sim.effects import Effects
+from terrain.sim.sensors import gravity_specific_force
 from terrain.sim.simulate import SimConfig, simulate
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.icr import chi_from_truth
 
@@ -74,3 +78,20 @@ def test_skid_steer_filter_refuses_a_steered_vehicle():
         estimate_skid_steer(run)
     with pytest.raises(ConfigError, match="agrimaro"):
         estimate_skid_steer(run, SkidSteerSettings())
+
+
+@settings(max_examples=30, deadline=None)
+@given(pitch=st.floats(-0.5, 0.5), accel=st.floats(-3.0, 3.0))
+def test_accelerometer_rows_read_the_simulators_gravity(pitch, accel):
+    """The slip filter's accelerometer rows at pitch ``p`` and acceleration ``a`` are the
+    simulator's gravity specific force plus ``a`` on x (to round-off of two sine
+    implementations): one gravity, the
+    terramechanics' ``G_M_S2``, which the simulator's IMU uses (the estimator had its own
+    copy of 9.80665)."""
+    assert STANDARD_GRAVITY_M_S2 is G_M_S2
+    assert SkidSteerSlipEquationParams().gravity_m_s2 is G_M_S2
+    x = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.0, accel, pitch])
+    hx = h(x)
+    g_x, _, g_z = gravity_specific_force(np.array([pitch]), np.array([0.0]))
+    assert hx[5] == pytest.approx(accel + float(g_x[0]), rel=1e-14, abs=1e-14)
+    assert hx[6] == pytest.approx(float(g_z[0]), rel=1e-14)

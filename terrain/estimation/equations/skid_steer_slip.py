@@ -35,13 +35,15 @@ import numpy as np
 
 from terrain.estimation.equations import skid_steer as _base
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.terramechanics.resistance import G_M_S2
 from terrain.terramechanics.slip import rim_speed_from_slip
 from terrain.vehicles.skid_steer import HUSKY
 
 #: Number of states and measurement rows.
 N_STATES, N_MEASUREMENTS = 8, 7
-#: Standard gravity, m/s^2 (ISO 80000-3).
-STANDARD_GRAVITY_M_S2 = 9.80665
+#: Standard gravity, m/s^2 (ISO 80000-3): the terramechanics' ``G_M_S2``, which the
+#: simulator's accelerometer uses (one value; this module kept a copy of its own).
+STANDARD_GRAVITY_M_S2 = G_M_S2
 #: Largest |slip| the rim equation takes (``1 - s`` stays >= 0.05); a state beyond it is
 #: clipped there, with no slip column in the Jacobian, dimensionless.
 MAX_SLIP = 0.95
