@@ -70,6 +70,7 @@ from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_senso
                                        check_time_offsets, make_grid, run_filter,
                                        stream_samples)
 from terrain.run import TIME, Run
+from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
 
 if TYPE_CHECKING:
@@ -400,11 +401,19 @@ def agrimaro_samples(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSettin
     ConfigError
         A key of ``time_offsets_s`` that is not a sensor of :data:`SENSOR_ROWS`, or a
         latency that is not a finite real number (a boolean, None, an array, NaN, inf;
-        :func:`~terrain.estimation.runner.check_time_offsets`).
+        :func:`~terrain.estimation.runner.check_time_offsets`); a run whose ``vehicle`` is
+        not the AgriMaRo (``husky``, ``tracked``: their ``wheels`` stream holds two sides,
+        not wheels 1 and 2) or unknown.
     """
     if "imu" not in run.streams:
         raise DataFormatError("an AgriMaRo run needs an imu stream", run.source)
     offsets = check_time_offsets(time_offsets_s, SENSOR_ROWS)
+    if not isinstance(get_vehicle(run.vehicle), AgriMaRoParams):
+        # (a Husky's left and right sides were read as wheels 1 and 2 of the swerve drive,
+        # on its axle line, and filtered without a word)
+        raise ConfigError(f"run {run.run_id}: vehicle {run.vehicle!r} is not the AgriMaRo, "
+                          "whose three steered wheels the AgriMaRo filter reads (a skid-steer "
+                          "run's filter: terrain.estimation.skid_steer.estimate_skid_steer)")
     out: dict[str, SensorSamples] = {}
     for sensor, (stream, cols) in SENSOR_COLUMNS.items():
         frame = run.streams.get(stream)
@@ -494,7 +503,8 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
         ``rate_hz`` outside ``[MIN_RATE_HZ, MAX_RATE_HZ]`` (:func:`~terrain.estimation.runner.
         check_rate_hz`); a name in ``sensors`` or ``time_offsets_s`` that is not a sensor of
         the model (:func:`~terrain.estimation.runner.check_sensor_names`), or a latency that
-        is not a real number; from
+        is not a real number; a run whose ``vehicle`` is not the AgriMaRo
+        (:func:`agrimaro_samples`); from
         :func:`~terrain.estimation.run_filter` (bad engine, shapes, or an innovation
         covariance that is not positive definite).
     """

@@ -15,6 +15,7 @@ from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import ConfigError
+from terrain.estimation.agrimaro import agrimaro_samples, estimate_agrimaro
 from terrain.estimation.equations.skid_steer_slip import (STANDARD_GRAVITY_M_S2,
                                                           SkidSteerSlipEquationParams, h)
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
@@ -37,7 +38,7 @@ def _turning_run(vehicle: str, n: int = 400, rate_hz: float = 100.0) -> Run:
     vel_l = np.full(n, v - chi * track * w / 2.0)
     vel_r = np.full(n, v + chi * track * w / 2.0)
     streams = {"wheels": pd.DataFrame({TIME: t, "vel_l": vel_l, "vel_r": vel_r}),
-               "imu": pd.DataFrame({TIME: t, "wz": np.full(n, w)})}
+               "imu": pd.DataFrame({TIME: t, "ax": 0.0, "ay": v * w, "wz": np.full(n, w)})}
     return Run(f"sim/ASPHALT/{vehicle}", "sim", "ASPHALT", streams, vehicle=vehicle)
 
 
@@ -121,3 +122,16 @@ def test_slip_state_model_slip_is_the_sae_slip_of_its_rim_speed(v, s):
     rim = model.observation(x)[0][:3] * model.vehicle.wheel_radius_m
     np.testing.assert_allclose(sae_slip(rim, np.full(3, v), dead_band_m_s=0.0), s,
                                atol=1e-9)
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "tracked"])
+def test_agrimaro_filter_refuses_a_skid_steer_run(vehicle):
+    """A skid-steer run (its ``wheels`` stream: the left and right sides) is no input of the
+    AgriMaRo EKF, which read ``vel_l, vel_r`` as its wheels 1 and 2 (on the axle line at
+    x = -+0.5075 m) over the AgriMaRo's wheel radius and ran without a word: a ConfigError
+    names the vehicle (estimate_agrimaro and agrimaro_samples)."""
+    run = _turning_run(vehicle)
+    with pytest.raises(ConfigError, match=vehicle):
+        estimate_agrimaro(run)
+    with pytest.raises(ConfigError, match=vehicle):
+        agrimaro_samples(run)
