@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
-from hypothesis import example, given, settings
+from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import ConfigError
@@ -135,3 +135,22 @@ def test_agrimaro_filter_refuses_a_skid_steer_run(vehicle):
         estimate_agrimaro(run)
     with pytest.raises(ConfigError, match=vehicle):
         agrimaro_samples(run)
+
+
+@settings(max_examples=60, deadline=None)
+@given(v=st.floats(-2.0, 2.0), w=st.floats(-1.0, 1.0), log_chi=st.floats(0.0, 1.0),
+       s1=st.floats(-0.9, 0.9), s2=st.floats(-0.9, 0.9))
+def test_slip_filter_slip_states_are_the_sae_slip_of_their_rim_speeds(v, w, log_chi, s1, s2):
+    """The slip-augmented skid-steer filter's ``slip_1`` (left) and ``slip_2`` (right) are
+    terramechanics' SAE slip (``sae_slip``, the simulator's truth slip, no floor or dead
+    band) of the rim speeds its wheel rows predict over each side's ground speed
+    ``v -+ chi B yaw_rate / 2``: traction and braking, forward and in reverse, turning either
+    way."""
+    track = SkidSteerSlipEquationParams().track_m
+    chi = float(np.exp(log_chi))
+    ground = np.array([v - chi * track * w / 2.0, v + chi * track * w / 2.0])
+    assume(np.all(np.abs(ground) > 1e-3))
+    x = np.array([v, w, 0.0, log_chi, s1, s2, 0.0, 0.0])
+    rim = h(x)[:2]
+    np.testing.assert_allclose(sae_slip(rim, ground, dead_band_m_s=0.0), [s1, s2],
+                               rtol=1e-9, atol=1e-12)
