@@ -18,10 +18,12 @@ from terrain.errors import ConfigError
 from terrain.estimation.agrimaro import agrimaro_samples, estimate_agrimaro
 from terrain.estimation.equations.skid_steer_slip import (STANDARD_GRAVITY_M_S2,
                                                           SkidSteerSlipEquationParams, h)
-from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer, icr_chi
+from terrain.estimation.skid_steer import (SkidSteerModel, SkidSteerSettings,
+                                           estimate_skid_steer, icr_chi)
 from terrain.estimation.slip_state import SlipStateModel
 from terrain.run import TIME, Run
 from terrain.sim.effects import Effects
+from terrain.sim.forces import contact_layout, velocity_maps
 from terrain.sim.sensors import gravity_specific_force
 from terrain.sim.simulate import SimConfig, simulate
 from terrain.terramechanics.resistance import G_M_S2
@@ -154,3 +156,25 @@ def test_slip_filter_slip_states_are_the_sae_slip_of_their_rim_speeds(v, w, log_
     rim = h(x)[:2]
     np.testing.assert_allclose(sae_slip(rim, ground, dead_band_m_s=0.0), [s1, s2],
                                rtol=1e-9, atol=1e-12)
+
+
+@settings(max_examples=40, deadline=None)
+@given(vehicle=st.sampled_from(["husky", "tracked"]), chi=st.floats(1.0, 5.0),
+       v=st.floats(-2.0, 2.0), vy=st.floats(-0.5, 0.5), w=st.floats(-2.0, 2.0))
+def test_filter_wheel_rows_are_the_simulators_contact_line_speeds(vehicle, chi, v, vy, w):
+    """One skid-steer kinematics: the 4-state EKF's wheel rows (``vel_l, vel_r`` at zero slip)
+    equal the longitudinal speeds of the simulator's kinematic contact lines (its
+    ``icr_expansion`` chi placing them at ``chi y``, :func:`terrain.sim.forces.velocity_maps`)
+    of the left (motor 0) and right (motor 1) contacts, for the vehicle's own track; the
+    lateral body speed does not enter either."""
+    params = get_vehicle(vehicle)
+    geometry = params.contact_geometry()
+    layout = contact_layout(geometry, params.mass_kg, 0.0, chi)
+    maps = velocity_maps(layout, np.zeros(len(layout.x_m)))
+    v_long = maps.long_kinematic @ np.array([v, vy, w])
+    sides = [v_long[geometry.motor_of_contact == m] for m in (0, 1)]
+    model = SkidSteerModel(SkidSteerSettings(track_m=params.track_m))
+    hx = model.observation(np.array([v, w, 0.0, np.log(chi)]))[0]
+    for side, rows in zip((0, 1), sides):
+        np.testing.assert_allclose(rows, hx[side], rtol=1e-12, atol=1e-12)
+    assert geometry.motor_names[:2] == ("left", "right")
