@@ -380,9 +380,10 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         ``peak_slip`` (largest |true slip| of any motor), ``peak_slip_gated`` (the same where
         the chassis speed exceeds the enabling threshold; None if it never does),
         ``time_to_speed_s`` (None if never),
-        ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law;
-        this and the two other per-metre energies None where the distance is below
-        :data:`MIN_DISTANCE_M`),
+        ``energy_j_per_m`` (``V_bus sum |I| dt / distance``, motor currents of the motor law
+        as the run's physics version reports them,
+        :func:`terrain.sim.simulate.motor_currents`; this and the two other per-metre
+        energies None where the distance is below :data:`MIN_DISTANCE_M`),
         ``mech_energy_j_per_m`` (``sum max(tau omega, 0) dt / distance``),
         ``drive_energy_j_per_m`` (``sum k_t G |omega| |I| dt / distance``: what a PWM drive
         passes to the motors, :meth:`terrain.vehicles.MotorParams.drive_power_w`; the bus
@@ -410,7 +411,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     distance = float(np.sum(speed) * dt)
     moved = distance >= MIN_DISTANCE_M     # below: round-off of a turn in place, no J/m
     duration = float(phys.t_s[-1] - phys.t_s[0] + dt)
-    cur = motor_currents(phys, vehicle, sim.config.effects)
+    # the run's own physics version: v2 reports the no-load current while a motor brakes
+    # (the power drawn); the v1 report of every run read 358.7 J/m for a v2 run's 281.8
+    cur = motor_currents(phys, vehicle, sim.config.effects, sim.config.physics)
     energy = bus_voltage_v * float(np.sum(cur) * dt)
     drive = float(np.sum(vehicle.motor.drive_power_w(cur, phys.omega)) * dt)
     mech = float(np.sum(np.maximum(phys.torque * phys.omega, 0.0)) * dt)
