@@ -35,6 +35,8 @@ from terrain.run import clock_slack
 from terrain.sim.closed_loop import Observation
 from terrain.sim.sensors import physics_step_index
 from terrain.sim.simulate import Simulation, motor_currents
+from terrain.slip import wheel_longitudinal_velocity
+from terrain.slip.core import skid_steer_contact_lines_m
 from terrain.terramechanics.calibration import steady_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
 from terrain.vehicles import get_vehicle
@@ -449,16 +451,16 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
         steady &= False
     s_err = np.abs(slip_true - setpoint)[steady]
     v_est = np.array([r["v_long"] for r in log])
-    geo = vehicle.contact_geometry()
-    if geo.steered:
-        pos = np.asarray(vehicle.wheel_positions_m)
-        d = phys.delta[idx]
-        tw = phys.twist[idx]
-        v_true = ((tw[:, [0]] - tw[:, [2]] * pos[:, 1]) * np.cos(d)
-                  + (tw[:, [1]] + tw[:, [2]] * pos[:, 0]) * np.sin(d))
+    # each unit's true longitudinal velocity by the slip module's eqs. 7.3-7.5 (one home of
+    # the relation): at the steering axes, or at a skid-steer's contact lines +-B/2
+    tw = phys.twist[idx]
+    if vehicle.contact_geometry().steered:
+        v_true = wheel_longitudinal_velocity(tw[:, 0], tw[:, 1], tw[:, 2],
+                                             np.asarray(vehicle.wheel_positions_m),
+                                             phys.delta[idx])
     else:
-        half = 0.5 * vehicle.track_m * phys.twist[idx, 2]
-        v_true = np.column_stack([phys.twist[idx, 0] - half, phys.twist[idx, 0] + half])
+        v_true = wheel_longitudinal_velocity(tw[:, 0], tw[:, 1], tw[:, 2],
+                                             skid_steer_contact_lines_m(vehicle.track_m))
     truth_names = np.asarray(phys.terrain_names)[phys.terrain_index[idx]]
     decided = np.array([str(r["terrain"]).upper() for r in log])
     return {

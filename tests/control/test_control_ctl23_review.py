@@ -23,7 +23,9 @@ from terrain.control.traction import (SlipTargets, TractionState, config_for_veh
 from terrain.serving.targets import TableTargets
 from terrain.sim.closed_loop import replay_observations, simulate_closed_loop
 from terrain.sim.simulate import SimConfig, motor_currents, simulate_with_physics
-from terrain.slip import wheel_slip
+from terrain.sim.sensors import physics_step_index
+from terrain.slip import wheel_longitudinal_velocity, wheel_slip
+from terrain.slip.core import skid_steer_contact_lines_m
 from terrain.terramechanics import (get_terrain, is_deformable, steady_slip,
                                     traction_coefficient)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
@@ -197,3 +199,27 @@ def test_the_agrimaro_controller_slip_is_the_batch_slip_of_the_ekf_state():
         np.testing.assert_allclose(out.slip, batch, atol=1e-12)
         checked += int(np.count_nonzero(batch))
     assert checked > 50
+
+
+@pytest.mark.parametrize("vehicle", ["husky", "agrimaro"])
+def test_loop_speed_error_is_scored_against_the_slip_modules_wheel_velocity(vehicle):
+    # the truth of speed_estimate_rmse_m_s is each unit's longitudinal velocity (eqs.
+    # 7.3-7.5: terrain.slip.wheel_longitudinal_velocity, at the steering axes of a steered
+    # vehicle, at the contact lines +-B/2 of a skid-steer one), in turns as well
+    sim, loop = _shadow_run(vehicle, "TILES", "random", "v1", duration_s=3.0)
+    m = loop_metrics(sim, loop, BUS_VOLTAGE_V[vehicle])
+    phys, params = sim.physics, get_vehicle(vehicle)
+    idx = physics_step_index(phys.t_s, np.array([r["t_s"] for r in loop.log]))
+    tw = phys.twist[idx]
+    assert np.max(np.abs(tw[:, 2])) > 0.1          # a turn: the yaw terms count
+    geo = params.contact_geometry()
+    if geo.steered:
+        truth = wheel_longitudinal_velocity(tw[:, 0], tw[:, 1], tw[:, 2],
+                                            np.asarray(params.wheel_positions_m),
+                                            phys.delta[idx])
+    else:
+        truth = wheel_longitudinal_velocity(tw[:, 0], tw[:, 1], tw[:, 2],
+                                            skid_steer_contact_lines_m(params.track_m))
+    v_est = np.array([r["v_long"] for r in loop.log])
+    assert m["speed_estimate_rmse_m_s"] == pytest.approx(
+        float(np.sqrt(np.mean((v_est - truth) ** 2))), rel=1e-12)
