@@ -8,6 +8,8 @@ Each test calls the real producer and the real consumer on the same input.
 
 from __future__ import annotations
 
+import itertools
+
 import numpy as np
 import pytest
 
@@ -223,3 +225,8 @@ def test_loop_speed_error_is_scored_against_the_slip_modules_wheel_velocity(vehi
     v_est = np.array([r["v_long"] for r in loop.log])
     assert m["speed_estimate_rmse_m_s"] == pytest.approx(
         float(np.sqrt(np.mean((v_est - truth) ** 2))), rel=1e-12)
+    # the estimator's units are the simulator's motors in the same order (left, right; wheels
+    # 1-3): any other order of the estimates fits the truth worse
+    for order in itertools.permutations(range(truth.shape[1])):
+        if list(order) != sorted(order):
+            assert np.mean((v_est[:, order] - truth) ** 2) > np.mean((v_est - truth) ** 2)
