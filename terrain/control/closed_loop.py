@@ -39,6 +39,7 @@ from terrain.slip import wheel_longitudinal_velocity
 from terrain.slip.core import skid_steer_contact_lines_m
 from terrain.terramechanics.calibration import steady_slip
 from terrain.terramechanics.catalogue import TERRAIN_NAMES, get_terrain
+from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles import get_vehicle
 
 #: DC bus voltage of each vehicle, V (sources in the module docstring).
@@ -428,7 +429,9 @@ def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,
     driven = np.asarray(phys.terrain_names)[np.unique(phys.terrain_index)]
     s_ss = max((steady_slip(get_terrain(str(n))) for n in driven
                 if str(n).upper() in TERRAIN_NAMES), default=0.0)
-    reference = cruise * (1.0 - s_ss)
+    # the ground speed a rim at the cruise command gives at that slip (the SAE slip's one
+    # inverse, eq. 7.1: omega r (1 - s) in traction)
+    reference = float(ground_speed_from_slip(cruise, s_ss))
     reached = np.flatnonzero(speed >= cruise_fraction * reference) if reference > 0.05 \
         else np.array([], dtype=int)
     t_speed = float(phys.t_s[reached[0]]) if reached.size else None

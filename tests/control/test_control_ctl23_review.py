@@ -32,6 +32,7 @@ from terrain.terramechanics import (get_terrain, is_deformable, steady_slip,
                                     traction_coefficient)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
 from terrain.terramechanics.efficiency import tractive_efficiency
+from terrain.terramechanics.slip import ground_speed_from_slip
 from terrain.vehicles import get_vehicle
 
 
@@ -230,3 +231,16 @@ def test_loop_speed_error_is_scored_against_the_slip_modules_wheel_velocity(vehi
     for order in itertools.permutations(range(truth.shape[1])):
         if list(order) != sorted(order):
             assert np.mean((v_est[:, order] - truth) ** 2) > np.mean((v_est - truth) ** 2)
+
+
+@pytest.mark.parametrize("terrain", ["SNOW", "TILES"])
+def test_loop_reference_speed_is_the_ground_speed_the_steady_slip_leaves(terrain):
+    # reference_speed_m_s: the cruise rim speed less the true terrain's steady slip, through
+    # the SAE slip's inverse (terramechanics ground_speed_from_slip), at the table's steady
+    # target: the speed the command holds once the resistances balance
+    sim, loop = _shadow_run("husky", terrain, "straight_accel", "v1", duration_s=3.0)
+    m = loop_metrics(sim, loop, BUS_VOLTAGE_V["husky"])
+    steady = build_slip_table([terrain]).entries[terrain].steady
+    assert steady == steady_slip(get_terrain(terrain))
+    expected = ground_speed_from_slip(m["cruise_speed_m_s"], steady)
+    assert m["reference_speed_m_s"] == float(expected)
