@@ -244,3 +244,35 @@ def test_loop_reference_speed_is_the_ground_speed_the_steady_slip_leaves(terrain
     assert steady == steady_slip(get_terrain(terrain))
     expected = ground_speed_from_slip(m["cruise_speed_m_s"], steady)
     assert m["reference_speed_m_s"] == float(expected)
+
+
+# --- the control-sim JSON fields the docs name ---------------------------------------------
+
+_ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]
+
+
+def _named(text: str, start: str, end: str) -> set[str]:
+    """The backquoted names between ``start`` and ``end`` in ``text``."""
+    import re
+
+    i = text.index(start)
+    return set(re.findall(r"`([a-z_0-9]+)`", text[i:text.index(end, i)]))
+
+
+def test_the_metric_fields_the_docs_name_are_the_ones_a_closed_loop_run_gives():
+    from terrain.control.closed_loop import run_closed_loop
+
+    readme = (_ROOT / "README.md").read_text()
+    doc = (_ROOT / "docs" / "control_validation.md").read_text()
+    named = (_named(readme, "shadow mode. JSON:", "and more.")
+             | _named(doc, "* **Metrics** (`loop_metrics`)", "**Stale figures")
+             | _named(doc, "* **Energy**:", "* **Drive energy**")
+             | {"estimator_limits", "estimator_pseudo_measurements",
+                "estimator_speed_bound_samples"})
+    named -= {"loop_metrics", "terramechanics", "steady_slip", "straight_accel"}
+    assert {"slip_rmse", "peak_slip", "time_to_speed_s", "energy_j_per_m",
+            "drive_energy_j_per_m", "distance_m", "mean_speed_m_s", "terrain_accuracy",
+            "slip_excess_rmse", "reference_speed_m_s", "steady_slip_within_0_02",
+            "mech_energy_j_per_m"} <= named
+    metrics = run_closed_loop("husky", "TILES", "straight_accel", True, 0, 2.0)[2]
+    assert named - set(metrics) == set()
