@@ -61,14 +61,14 @@ import pandas as pd
 
 from features.windows import WindowConfig
 from terrain.control import DesiredSlipConfig
-from terrain.errors import (DataFormatError, TerrainError, config_integer, config_probability,
-                            listed)
+from terrain.errors import (DataFormatError, TerrainError, config_integer, config_positive,
+                            config_probability, listed)
 from terrain.run import TIME
 from terrain.serving.config import KNOWN_STREAMS, StreamConfig, check_hop
 from terrain.serving.decisions import decisions_frame, with_run_stuck_flags
 from terrain.serving.model import (PIPELINE_ARTIFACT, StreamModel, load_pipeline,
-                                   load_stream_model, model_channel_steps_s, model_vehicle,
-                                   new_model_directory)
+                                   load_stream_model, model_channel_steps_s, model_track_m,
+                                   model_vehicle, new_model_directory)
 from terrain.serving.replay import replay_run
 from terrain.serving.request import (DEFAULT_VEHICLE, parse_request, planned_decisions,
                                      time_span_s)
@@ -163,7 +163,10 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
         it names none), whose bounds the run-level
         plausibility rules use; ``channel_steps_s`` the training runs' sample step of its
         channels (:func:`~terrain.serving.model.model_channel_steps_s`; None when the model
-        records none), against which a stream's first steps are judged.
+        records none), against which a stream's first steps are judged; ``track_m`` the
+        track width (m) the model's training windows derived ``yaw_rate_wheels`` with
+        (:func:`~terrain.serving.model.model_track_m`), with which the served windows derive
+        it too.
 
     Raises
     ------
@@ -179,7 +182,10 @@ def served_settings(model: StreamModel, hop_s: float = 0.5, dwell_s: float | Non
                 "min_confidence": float(min_confidence), "max_rows": max_rows,
                 "max_decisions": max_decisions,
                 "vehicle": str(model_vehicle(model.metadata) or DEFAULT_VEHICLE),
-                "channel_steps_s": model_channel_steps_s(model.metadata) or None}
+                "channel_steps_s": model_channel_steps_s(model.metadata) or None,
+                # the served windows derive yaw_rate_wheels as the training windows did (it
+                # was left out: a tracked vehicle's model served with the Husky's track)
+                "track_m": model_track_m(model.metadata)}
     check_settings(settings)
     # checked whole numbers; a NumPy integer as Python's, for the JSON of model_config
     settings["max_rows"], settings["max_decisions"] = int(max_rows), int(max_decisions)
@@ -193,7 +199,7 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     ----------
     settings : Mapping
         ``hop_s``, ``rate_hz``, ``dwell_s``, ``min_confidence``, ``max_rows`` and (optional,
-        absent in models wrapped before it existed) ``max_decisions``.
+        absent in models wrapped before they existed) ``max_decisions`` and ``track_m``.
 
     Raises
     ------
@@ -203,6 +209,8 @@ def check_settings(settings: Mapping[str, Any]) -> None:
     check_hop(settings["hop_s"], settings["rate_hz"])
     smoothing_of(settings)
     model_channel_steps_s(settings)
+    if settings.get("track_m") is not None:
+        config_positive("served settings", track_m=settings["track_m"])
     config_probability("served settings", min_confidence=settings["min_confidence"])
     for key in ("max_rows", "max_decisions"):
         # a count: a float (2.7 was taken as 2), text, None, NaN or a boolean is refused here
@@ -299,7 +307,10 @@ class ServedStreamModel(PythonModel):
                             metadata={"vehicle": str(s["vehicle"]),
                                       # the first steps of a stream are judged
                                       # against its training step
-                                      "channel_steps_s": s.get("channel_steps_s")})
+                                      "channel_steps_s": s.get("channel_steps_s"),
+                                      # the derived wheel channels' track (None: a model
+                                      # wrapped before the key, which used the Husky's)
+                                      "track_m": s.get("track_m")})
         targets = TableTargets(model.classes,
                                DesiredSlipConfig(min_confidence=s["min_confidence"]))
         # a request makes at most max_decisions decisions, every one in the answer (a

@@ -1,0 +1,108 @@
+"""Contracts across the serving seams (svc25): what training writes, what serving reads;
+the same windows on two paths give one answer.
+
+Each test calls the real producer and the real consumer: ``save_model`` (what ``terrain
+train --model-out`` writes) -> ``load_stream_model`` (``terrain stream``) and
+``served_settings`` / ``ServedStreamModel`` (``terrain serve``)."""
+
+from __future__ import annotations
+
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from features.windows import HUSKY_TRACK_M, WindowConfig
+from terrain.control import DesiredSlipConfig
+from terrain.run import WHEEL_CHANNELS
+from terrain.serving import (StreamConfig, StreamService, TableTargets, decisions_frame,
+                             load_stream_model, replay_run)
+from terrain.serving.model import PIPELINE_ARTIFACT, model_track_m
+from terrain.serving.pyfunc import save_model
+from terrain.serving.request import parse_request
+from terrain.serving.served import ServedStreamModel, served_settings
+from terrain.vehicles import TRACKED
+
+DERIVED = ["vel_diff", "yaw_rate_wheels"]
+
+
+def _mean_model():
+    """A fitted classifier on the per-channel window means of ``DERIVED`` (sklearn only):
+    a mean ``yaw_rate_wheels`` of 0 rad/s is GRASS, 1 rad/s ICE."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    X = np.zeros((4, 2, 20))
+    X[2:, 1] = 1.0
+    return make_pipeline(FunctionTransformer(np.mean, kw_args={"axis": 2}),
+                         LogisticRegression()).fit(X, ["GRASS", "GRASS", "ICE", "ICE"])
+
+
+@pytest.fixture(scope="module")
+def tracked_model_dir(tmp_path_factory):
+    """A ``terrain train --model-out`` directory of a model trained on tracked-vehicle runs
+    (its metadata names the vehicle; ``save_model`` writes its track, 0.393 m)."""
+    path = tmp_path_factory.mktemp("svc25") / "train"
+    save_model(path, _mean_model(), DERIVED, WindowConfig(window_s=2.0, rate_hz=10.0),
+               ["GRASS", "ICE"], {"vehicle": "tracked"}, progress=False)
+    return path
+
+
+def _served(model_dir, settings: dict) -> ServedStreamModel:
+    """The served pyfunc of ``model_dir`` with ``settings`` as its model_config, loaded
+    in-process (what ``mlflow models serve`` does at start)."""
+    served = ServedStreamModel()
+    served.load_context(SimpleNamespace(
+        artifacts={"pipeline": str(model_dir / PIPELINE_ARTIFACT)}, model_config=settings))
+    return served
+
+
+def _turning_request() -> pd.DataFrame:
+    """12 s of a tracked vehicle turning on its wheels (vel_r - vel_l about 0.2 m/s)."""
+    t = np.arange(120) / 10.0
+    return pd.DataFrame({"stream": "wheels", "t_s": t, "vel_l": -0.1 + 0.0 * t,
+                         "vel_r": 0.1 + 0.05 * np.sin(t), "cur_l": 5.0 + 0.1 * np.sin(3 * t),
+                         "cur_r": 6.0 + 0.1 * np.cos(2 * t)})
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_the_served_model_derives_the_wheel_yaw_rate_with_the_models_track(tracked_model_dir):
+    # terrain serve built its StreamModel from the served settings, which did not carry the
+    # model's track_m: every served window derived yaw_rate_wheels with the Husky's 0.5708 m
+    # while terrain stream (load_stream_model) and the training windows used 0.393 m; on this
+    # request the served answer decided GRASS where the in-process service decided ICE
+    model = load_stream_model(tracked_model_dir)
+    assert model_track_m(model.metadata) == TRACKED.track_m
+    served = _served(tracked_model_dir, served_settings(model))
+    request = _turning_request()
+    got = served.decide(request)
+    service = StreamService(model, TableTargets(model.classes,
+                                                DesiredSlipConfig(min_confidence=0.5)),
+                            StreamConfig(hop_s=0.5))
+    run = parse_request(request, {"wheels": WHEEL_CHANNELS}, 2.0, 10_000, vehicle="tracked")
+    want = decisions_frame(replay_run(service, run), model.classes)
+    assert len(got) == len(want) >= 10
+    np.testing.assert_allclose(got[["proba_GRASS", "proba_ICE"]],
+                               want[["proba_GRASS", "proba_ICE"]], atol=1e-9)
+    assert list(got["terrain"]) == list(want["terrain"].fillna(""))
+    np.testing.assert_allclose(got["target_slip_traction"], want["target_slip_traction"])
+
+
+@pytest.mark.filterwarnings("ignore::UserWarning")
+def test_a_served_model_wrapped_before_the_track_was_kept_keeps_the_huskys(tracked_model_dir):
+    # settings written before the key existed: the served windows used the Husky's track
+    model = load_stream_model(tracked_model_dir)
+    older = {k: v for k, v in served_settings(model).items() if k != "track_m"}
+    assert model_track_m(_served(tracked_model_dir, older).model.metadata) == HUSKY_TRACK_M
+
+
+@pytest.mark.parametrize("track_m", [0.0, -0.5, float("nan"), float("inf"), True, "0.4"])
+def test_served_settings_with_a_track_that_is_no_length_are_refused(tracked_model_dir, track_m):
+    from terrain.errors import ConfigError
+    from terrain.serving.served import check_settings
+
+    settings = {**served_settings(load_stream_model(tracked_model_dir)), "track_m": track_m}
+    with pytest.raises(ConfigError, match="track_m"):
+        check_settings(settings)
