@@ -149,3 +149,52 @@ def test_a_stream_eval_model_keeps_the_training_steps_it_was_fitted_with(
     saved = load_stream_model(out / "wheels")
     assert dict(saved.metadata.get("channel_steps_s") or {}) == \
         dict(wheel_model.metadata["channel_steps_s"])
+
+
+def _imu_model():
+    """A StreamModel on the accelerometer (10 Hz clock, 2 s windows of 20 samples) whose
+    classifier reads the window means (sklearn only)."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import FunctionTransformer
+
+    from terrain.serving import StreamModel
+
+    X = np.zeros((4, 3, 20))
+    X[:, 2] = 9.81
+    X[2:, 2] = 9.0
+    pipe = make_pipeline(FunctionTransformer(np.mean, kw_args={"axis": 2}),
+                         LogisticRegression()).fit(X, ["GRASS", "GRASS", "ICE", "ICE"])
+    return StreamModel(pipe, ("ax", "ay", "az"), WindowConfig(window_s=2.0, rate_hz=10.0),
+                       ("GRASS", "ICE"))
+
+
+@pytest.mark.parametrize("low, high, in_g", [(2.0, 3.9, True), (2.5, 3.6, False)])
+def test_the_live_accel_units_rule_reads_the_median_the_readers_read(low, high, in_g):
+    # the live rule took the upper of the two middle |a| of an even window (20 samples) for
+    # its median: a window half at 2.0 and half at 3.9 m/s^2 (median 2.95, in g for the
+    # readers' rule, which refuses such a file) was classified unflagged; half at 2.5 and
+    # half at 3.6 (median 3.05) is in m/s^2 for both
+    from terrain.errors import UnitError
+    from terrain.io.plausibility import check_accel_units
+    from terrain.run import IMU_CHANNELS, TIME
+    from terrain.serving import CataloguePeakTargets, SmoothingConfig
+
+    t = np.arange(60) / 10.0
+    az = np.where(np.arange(60) % 2 == 0, low, high)
+    wiggle = 0.01 * np.sin(np.arange(60))   # no channel stuck (the readers skip those)
+    frame = pd.DataFrame({TIME: t, "wx": wiggle, "wy": wiggle, "wz": wiggle, "ax": wiggle,
+                          "ay": wiggle, "az": az})
+    try:
+        check_accel_units(frame[t < 2.0], "window")
+        readers_in_g = False
+    except UnitError as exc:
+        readers_in_g = "accel_units" in str(exc)
+    assert readers_in_g == in_g
+    model = _imu_model()
+    service = StreamService(model, CataloguePeakTargets(model.classes),
+                            StreamConfig(hop_s=2.0, smoothing=SmoothingConfig(dwell_s=None)))
+    decisions = service.push("imu", t, frame[list(IMU_CHANNELS)].to_numpy())
+    assert len(decisions) >= 2
+    assert [("accel_units" in d.flags.split("|")) for d in decisions] == \
+        [in_g] * len(decisions), [d.flags for d in decisions]
