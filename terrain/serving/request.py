@@ -20,15 +20,16 @@ from __future__ import annotations
 
 import datetime
 import math
+import warnings
 from numbers import Real
 from typing import Any, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (DataFormatError, ImplausibleValueError, MissingColumnError,
-                            NonFiniteError, NonNumericError, TimestampError, duplicated,
-                            first_items, listed)
+from terrain.errors import (DataFormatError, DataWarning, ImplausibleValueError,
+                            MissingColumnError, NonFiniteError, NonNumericError, TimestampError,
+                            duplicated, first_items, listed)
 from terrain.io.measured import NON_FINITE_WORDS
 from terrain.io.plausibility import (NOMINAL_RATE_HZ, check_accel_units, check_ranges,
                                      check_rate, check_run, implied_rate_hz)
@@ -304,9 +305,12 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     Run
         One frame per needed stream (``t_s`` + channels), in the request's time order;
         ``meta`` holds the run-level findings (``stuck``, ``warnings``) of
-        :func:`~terrain.io.plausibility.check_run` and ``unused`` (stream -> rows of a
-        known stream the model does not need) and ``ignored_columns`` (the request's
-        columns that no known stream has, in request order).
+        :func:`~terrain.io.plausibility.check_run`, the ``warnings`` led by the dead-sensor
+        finding of :func:`~terrain.io.plausibility.check_accel_units` (an accelerometer
+        that sees no gravity; also warned as a :class:`~terrain.errors.DataWarning`), and
+        ``unused`` (stream -> rows of a known stream the model does not need) and
+        ``ignored_columns`` (the request's columns that no known stream has, in request
+        order).
 
     Raises
     ------
@@ -348,7 +352,7 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
     long = STREAM in frame.columns
     if long:
         _check_stream_names(frame[STREAM].to_numpy(), known_streams, where)
-    out = {}
+    out, accel = {}, []
     for stream, channels in streams.items():
         tcol = TIME if long else f"{stream}_{TIME}"
         need = [tcol, *channels]
@@ -373,10 +377,18 @@ def parse_request(frame: pd.DataFrame, streams: Mapping[str, Sequence[str]],
         check_ranges(part.where(np.isfinite(part)), where, {c: c for c in channels},
                      rows=rows)
         if {"ax", "ay", "az"} <= set(channels):
-            check_accel_units(part, where)  # a stream in g is refused, as a file in g
+            # a stream in g is refused, as a file in g; a dead one is a likely finding,
+            # kept with check_run's (the answer flags it warning:accel_units on every window:
+            # it went to the server's log only)
+            found: list[str] = []
+            check_accel_units(part, where, found)
+            for message in found:
+                warnings.warn(message, DataWarning, stacklevel=2)
+            accel += found
         out[stream] = part
     # the readers' run-level rules (units, clocks, stuck sensors); certain findings raise
     checks = check_run(where, out, vehicle, {s: where for s in out}, time_column=TIME)
+    checks["warnings"] = [*accel, *checks["warnings"]]
     checks["unused"] = _unused_rows(frame, long,
                                     [s for s in known_streams if s not in streams])
     checks["ignored_columns"] = _ignored_columns(labels, long, (known_streams, streams))

@@ -198,3 +198,33 @@ def test_the_live_accel_units_rule_reads_the_median_the_readers_read(low, high, 
     assert len(decisions) >= 2
     assert [("accel_units" in d.flags.split("|")) for d in decisions] == \
         [in_g] * len(decisions), [d.flags for d in decisions]
+
+
+def test_a_served_request_from_a_dead_accelerometer_flags_every_window(tmp_path):
+    # the readers' rule accel_units warns of an accelerometer that sees no gravity (a dead
+    # or disconnected sensor: terrain predict and terrain stream print it); a served request
+    # from one was answered unflagged (the warning went to the server's log only), where the
+    # served answer flags every window of a likely finding warning:<rule>
+    import warnings
+
+    import joblib
+
+    from terrain.errors import DataWarning
+    from terrain.run import IMU_CHANNELS
+
+    model = _imu_model()
+    path = tmp_path / "pipeline.joblib"
+    joblib.dump(model.pipeline, path)
+    served = ServedStreamModel()
+    served.load_context(SimpleNamespace(artifacts={"pipeline": str(path)},
+                                        model_config=served_settings(model)))
+    t = np.arange(60) / 10.0
+    noise = 0.02 * np.sin(1.7 * np.arange(60))     # a live signal, nothing stuck
+    request = pd.DataFrame({"stream": "imu", "t_s": t,
+                            **{c: noise * (k + 1) for k, c in enumerate(IMU_CHANNELS)}})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", DataWarning)
+        answer = served.decide(request)
+    assert len(answer) >= 5
+    assert all("warning:accel_units" in f.split("|") for f in answer["flags"]), \
+        list(answer["flags"])
