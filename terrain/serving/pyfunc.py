@@ -46,7 +46,7 @@ from features.windows import (HUSKY_TRACK_M, WindowConfig, add_derived_channels,
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
                             TimestampError, duplicated)
 from terrain.io.align import align_streams
-from terrain.io.plausibility import check_ranges
+from terrain.io.plausibility import check_accel_units, check_ranges
 from terrain.run import TIME, Run
 from terrain.serving.model import (load_pipeline, measured_channels, model_vehicle,
                                    new_model_directory, read_model_metadata)
@@ -209,6 +209,8 @@ class TerrainModel(PythonModel):
             A time or channel cell that is not a number (text, a boolean).
         ImplausibleValueError
             A value beyond its channel's plausibility range (:mod:`terrain.io.plausibility`).
+        UnitError
+            An accelerometer in g (the readers' rule ``accel_units``).
         DataFormatError
             Samples not at the model's rate, timestamps not increasing within a run, or a
             sample without a run.
@@ -266,6 +268,9 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
     ImplausibleValueError
         A value beyond its channel's plausibility range (:func:`terrain.io.plausibility.
         check_ranges`).
+    UnitError
+        A run whose accelerometer reads in g (the readers' rule ``accel_units``,
+        :func:`terrain.io.plausibility.check_accel_units`, on its finite samples).
     NonFiniteError
         A NaN or infinite timestamp (names the run and the row of ``samples``).
     TimestampError
@@ -342,6 +347,13 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
                                  f"{config.rate_hz:g} Hz clock, a gap being rows of NaN "
                                  f"(align with align_streams)",
                                  f"model input, run {run_id}", TIME, int(at[row]))
+        if {"ax", "ay", "az"} <= set(frame.columns):
+            # the readers' rule accel_units on the run's live samples (NaN rows are gaps):
+            # an accelerometer in g was classified as if gravity were 1 m/s^2 (its likely
+            # finding, a dead sensor, is the readers' to warn of: not repeated here)
+            acc = frame[[TIME, "ax", "ay", "az"]]
+            check_accel_units(acc[np.isfinite(acc.to_numpy(dtype=float)).all(axis=1)],
+                              f"model input, run {run_id}", [])
         frame = add_derived_channels(frame, track_m)
         X, t0, t1, _, counts = window_frame(frame, channels, config)
         empty += counts["empty_gap"]

@@ -228,3 +228,27 @@ def test_a_served_request_from_a_dead_accelerometer_flags_every_window(tmp_path)
     assert len(answer) >= 5
     assert all("warning:accel_units" in f.split("|") for f in answer["flags"]), \
         list(answer["flags"])
+
+
+def test_the_terrain_predict_pyfunc_refuses_an_accelerometer_in_g_as_the_readers_do():
+    # the readers refuse a file in g and terrain serve a stream in g (rule accel_units), but
+    # the pyfunc that `mlflow models serve -m model/` runs on aligned samples classified one
+    # (gravity read as 1 m/s^2) without a word
+    from terrain.errors import UnitError
+    from terrain.run import TIME
+    from terrain.serving.pyfunc import predict_windows
+
+    model = _imu_model()
+    t = np.arange(60) / 10.0
+    wiggle = 0.01 * np.sin(np.arange(60))
+    samples = pd.DataFrame({"run": "r1", TIME: t, "ax": wiggle, "ay": -wiggle,
+                            "az": 1.0 + wiggle})
+    with pytest.raises(UnitError, match="accel_units"):
+        predict_windows(model.pipeline, samples, model.channels, model.window, model.classes)
+    gap = samples.copy()
+    gap.loc[30, ["ax", "ay", "az"]] = np.nan        # a gap (a NaN row) leaves it in g
+    with pytest.raises(UnitError, match="accel_units"):
+        predict_windows(model.pipeline, gap, model.channels, model.window, model.classes)
+    ok = predict_windows(model.pipeline, samples.assign(az=9.81 * samples["az"]),
+                         model.channels, model.window, model.classes)
+    assert len(ok) == 3
