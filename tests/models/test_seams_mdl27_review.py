@@ -131,3 +131,25 @@ def test_documented_grid_table_is_the_summary_of_its_documented_cells():
     rows = [line for line in grid_markdown(table, (1, 5, 10)).splitlines()
             if line.startswith("| ") and not line.startswith("| signals")]
     assert rows and all(line in lines for line in rows)
+
+
+def test_svm_on_features_computed_once_is_the_registry_svm_on_raw_windows():
+    """Two paths, one answer: terrain cv's SVM (features of every window computed once, then
+    make_svm per fold: run_cv) and the registry's svm (svm_window_pipeline per fold: the
+    compare grid, terrain train) give the same out-of-fold probabilities and decisions."""
+    from features.transformers import WindowFeatures
+    from terrain.models.svm import make_svm
+
+    X, y, runs, t0, t1 = _windows(3)
+    F = WindowFeatures(channels=VOTE_CHANNELS, rate_hz=25.0).fit(X).transform(X)
+    kw = dict(protocol="grouped", seeds=(3,), n_splits=2)
+    once = cross_validate(lambda s: make_svm(SVMConfig(probability=True), s), F, y, runs,
+                          runs, t0, t1, **kw)
+    raw = cross_validate(lambda s: make_model(ModelConfig(kind="svm"), VOTE_CHANNELS, 25.0,
+                                              "borealtc", s), X, y, runs, runs, t0, t1, **kw)
+    cols = [c for c in once.predictions.columns if c.startswith("proba_")]
+    assert len(cols) == 3
+    np.testing.assert_allclose(raw.predictions[cols].to_numpy(float),
+                               once.predictions[cols].to_numpy(float), atol=1e-12)
+    np.testing.assert_array_equal(raw.predictions["predicted"], once.predictions["predicted"])
+    pd.testing.assert_frame_equal(raw.pooled, once.pooled)
