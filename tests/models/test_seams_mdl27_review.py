@@ -153,3 +153,22 @@ def test_svm_on_features_computed_once_is_the_registry_svm_on_raw_windows():
                                once.predictions[cols].to_numpy(float), atol=1e-12)
     np.testing.assert_array_equal(raw.predictions["predicted"], once.predictions["predicted"])
     pd.testing.assert_frame_equal(raw.pooled, once.pooled)
+
+
+def test_compare_row_at_history_one_is_the_cv_reports_pooled_score():
+    """Two paths, one answer: a compare cell's row at k = 1 (score_rows of the out-of-fold
+    probabilities) scores what terrain cv's pooled report scores (the decisions of the
+    model), its run_vote_accuracy being cv's run_majority_accuracy."""
+    from terrain.models.compare import score_rows
+
+    X, y, runs, t0, t1 = _windows(5)
+    report = cross_validate(lambda s: make_model(ModelConfig(kind="svm"), VOTE_CHANNELS, 25.0,
+                                                 "vulpi", s),
+                            X, y, runs, runs, t0, t1, protocol="grouped", seeds=(5,),
+                            n_splits=2)
+    row, = score_rows(report.predictions, report.classes, (1,), {})
+    pooled = report.pooled.iloc[0]
+    for key in ("accuracy", "balanced_accuracy", "macro_f1"):
+        assert row[key] == pytest.approx(pooled[key], abs=1e-12)
+    assert row["run_vote_accuracy"] == pytest.approx(pooled["run_majority_accuracy"])
+    assert row["n_windows"] == len(y)
