@@ -617,9 +617,10 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     ----------
     runs : sequence of Run
         Runs of any terrain; those of ``terrain`` with an IMU and at least 20 turning wheel
-        samples are replayed.
+        samples are replayed (a run's label names the catalogue terrain in any case, as for
+        :func:`~terrain.audit.replay.replay_run`: ``asphalt`` is an ``ASPHALT`` run).
     terrain : str
-        Catalogue terrain.
+        Catalogue terrain (any case; the table's ``terrain`` is the catalogue's name).
     factors : sequence of float
         Multipliers of the catalogue lateral friction (finite, >= 0).
     settings : AuditSettings
@@ -654,7 +655,11 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     base = get_terrain(terrain)
     chosen, skipped = [], {}
     for run in runs:
-        if run.terrain != terrain or not run.has_imu or "wheels" not in run.streams:
+        # the catalogue's name, as the replay reads the label (a folder 'asphalt/' gives
+        # 'asphalt', the frames and run_audit's scopes 'ASPHALT'): compared as text, no run
+        # was chosen and the table read replay_chi NaN, n_runs 0
+        if (_catalogue_name(run.terrain) != base.name or not run.has_imu
+                or "wheels" not in run.streams):
             continue
         try:                # a run the audit skips (listed there) would stop the sweep
             require_replayable(run, base)
@@ -679,12 +684,25 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
             replayed.append(rep.yaw_rate[m])
         commanded, replayed = np.concatenate(commanded), np.concatenate(replayed)
         chi = icr_expansion_factor(replayed, commanded) if commanded.size else np.nan
-        rows.append({"terrain": terrain, "factor": float(factor),
+        rows.append({"terrain": base.name, "factor": float(factor),
                      "lateral_friction": ter.lateral_friction, "replay_chi": chi,
                      "measured_chi": measured_chi, "n_runs": len(chosen)})
     out = pd.DataFrame(rows)
     out.attrs["skipped"] = skipped
     return out
+
+
+def _catalogue_name(label: object) -> str | None:
+    """A run's terrain label as the catalogue names it (:func:`get_terrain` reads any case);
+    None for no label or one the catalogue does not know."""
+    from terrain.terramechanics.catalogue import get_terrain
+
+    if label is None:
+        return None
+    try:
+        return get_terrain(str(label)).name
+    except ConfigError:
+        return None
 
 
 def _with_details(group: GroupResult, name: str, extra: dict) -> GroupResult:
