@@ -108,7 +108,8 @@ def fig_lags(result: AuditResult) -> Figure:
     Returns
     -------
     matplotlib.figure.Figure
-        Lag (s) against time in run (s), runs with an identifiable lag.
+        Lag (s) against time in run (s: from the run's first wheel sample, whatever its
+        clock's origin), runs with an identifiable lag.
     """
     fig = Figure(figsize=(10, 4.5))
     ax = fig.subplots()
@@ -117,8 +118,10 @@ def fig_lags(result: AuditResult) -> Figure:
         if not f.has_imu or not f.lag.identifiable:
             continue
         c = _COLORS[terrains.index(f.terrain) % len(_COLORS)]
-        ax.plot(f.lag.centres_s, f.lag.lags_s, "o-", color=c, ms=3, lw=1)
-        ax.annotate(f.run_id.split("/", 1)[-1], (f.lag.centres_s[-1], f.lag.lags_s[-1]),
+        # time in run: the window centres are wheel-clock times, 1.7e9 s on an epoch clock
+        t_run = f.lag.centres_s - f.t_s[0]
+        ax.plot(t_run, f.lag.lags_s, "o-", color=c, ms=3, lw=1)
+        ax.annotate(f.run_id.split("/", 1)[-1], (t_run[-1], f.lag.lags_s[-1]),
                     fontsize=6, color=c)
     for t in terrains:
         ax.plot([], [], color=_COLORS[terrains.index(t) % len(_COLORS)], label=t)

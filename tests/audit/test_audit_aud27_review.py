@@ -5,6 +5,8 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+import pandas as pd
 import pytest
 
 from terrain.audit.core import AuditSettings, lateral_friction_sweep, prepare_frames
@@ -37,3 +39,34 @@ def test_the_friction_sweep_takes_a_run_labelled_in_another_case(asphalt_run, la
     again = lateral_friction_sweep([upper], label, (1.0,), settings)
     assert again.terrain.tolist() == ["ASPHALT"]
     assert again.replay_chi.tolist() == want.replay_chi.tolist()
+
+
+def _on_clock(run, origin_s):
+    """The run with every stream's clock moved to start at ``origin_s`` (a recorder's epoch
+    clock, as the readers keep it)."""
+    streams = {k: s.assign(t_s=s.t_s + origin_s) for k, s in run.streams.items()}
+    return replace(run, streams=streams)
+
+
+def test_the_lag_figure_plots_time_in_run_on_an_epoch_clock(asphalt_run):
+    """fig_lags' x axis reads 'time in run (s)'; the lag track's window centres are times of
+    the wheel clock, which a recorder's epoch clock puts at 1.7e9 s: that run was drawn at
+    1.7e9 s, the same run recorded from 0 at 15 s (and several runs of other epochs spread
+    along the axis). Both now read 15 s from the start of their record."""
+    from terrain.audit.core import AuditResult
+    from terrain.audit.figures import fig_lags
+
+    settings = AuditSettings()
+    runs = [asphalt_run, replace(_on_clock(asphalt_run, 1.7e9), run_id="sim/ASPHALT/epoch")]
+    frames, skipped = prepare_frames(runs, settings)
+    assert not skipped and all(f.lag.identifiable for f in frames)
+    result = AuditResult(settings=settings, frames=tuple(frames), skipped={}, groups={},
+                         residuals=pd.DataFrame(), lags=pd.DataFrame(), facts={},
+                         timings_s={})
+    fig = fig_lags(result)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "time in run (s)"
+    xs = [np.asarray(line.get_xdata(), float) for line in ax.lines[:2]]   # one per run
+    want = frames[0].lag.centres_s - frames[0].t_s[0]
+    for x in xs:
+        np.testing.assert_allclose(x, want, atol=1e-6)
