@@ -53,7 +53,7 @@ from sklearn.ensemble import HistGradientBoostingRegressor
 
 from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
 from terrain.errors import ConfigError, config_integer, config_positive, refuse_missing
-from terrain.vehicles import HUSKY
+from terrain.vehicles import HUSKY, side_speeds
 from terrain.vehicles.icr import inverse_icr_factor
 
 #: manoeuvre scopes of :func:`ceiling_table` (``moving`` pools the three others)
@@ -139,9 +139,10 @@ def _cur_mask(frame: AuditFrame) -> np.ndarray:
 
 
 def _side_speed(frame: AuditFrame, side: int, track_m: float) -> np.ndarray:
-    """``|v_side|`` of one drive side, m/s: ``v -+ x B / 2`` (seed ``000`` eq. 2 inverted)."""
-    sign = -1.0 if side == 0 else 1.0
-    return np.abs(frame.commanded_speed + sign * 0.5 * track_m * frame.commanded_yaw_rate)
+    """``|v_side|`` of one drive side (0 left, 1 right), m/s: ``v -+ x B / 2`` (seed ``000``
+    eq. 2 inverted, :func:`terrain.vehicles.side_speeds`)."""
+    return np.abs(side_speeds(frame.commanded_speed, frame.commanded_yaw_rate, track_m,
+                              1.0)[side])
 
 
 def _yaw_rows(frames: Sequence[AuditFrame],

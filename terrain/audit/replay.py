@@ -43,7 +43,7 @@ from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import get_vehicle, skid_steer_forward
 
 #: vehicles the replay supports (skid-steer: two drive sides, left = motor 0)
 SKID_STEER_VEHICLES = ("husky", "tracked")
@@ -431,7 +431,10 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     vl = np.interp(t, rel_w, in_l)
     vr = np.interp(t, rel_w, in_r)
     b = float(vehicle.track_m)
-    twist = np.column_stack([0.5 * (vl + vr), np.zeros_like(t), (vr - vl) / b])
+    # the body twist the measured sides command (seed 000 eq. 2, the one skid-steer relation
+    # of terrain.vehicles), which the simulator's wheel_commands turns back into vl, vr
+    v, w = skid_steer_forward(vl, vr, b)
+    twist = np.column_stack([v, np.zeros_like(t), w])
     r_w = geometry.wheel_radius_m
     vmax = max(float(np.max(np.abs(np.r_[vel_l, vel_r]))), 1e-3)
     motor = replace(vehicle.motor, speed_time_constant_s=dt,

@@ -70,3 +70,54 @@ def test_the_lag_figure_plots_time_in_run_on_an_epoch_clock(asphalt_run):
     want = frames[0].lag.centres_s - frames[0].t_s[0]
     for x in xs:
         np.testing.assert_allclose(x, want, atol=1e-6)
+
+
+def test_the_replay_commands_the_twist_the_simulators_kinematics_turn_back_into_its_speeds(
+        asphalt_run, monkeypatch):
+    """The replay feeds the simulator a body twist made from the measured side speeds; the
+    simulator turns it back into wheel speeds (wheel_commands: skid_steer_inverse). Both
+    sides of that seam are the one skid-steer relation of terrain.vehicles (side order left,
+    right; yaw rate positive turning left): the twist is skid_steer_forward's, and the
+    wheels it commands are the measured speeds, interpolated onto the physics grid."""
+    from terrain.audit import replay as replay_module
+    from terrain.sim.dynamics import integrate, wheel_commands
+    from terrain.vehicles import HUSKY, skid_steer_forward
+
+    seen = {}
+
+    def spy(vehicle, geometry, terrains, segment_m, t, twist, *args, **kwargs):
+        seen.update(vehicle=vehicle, geometry=geometry, t=t, twist=twist)
+        return integrate(vehicle, geometry, terrains, segment_m, t, twist, *args, **kwargs)
+
+    monkeypatch.setattr(replay_module, "integrate", spy)
+    run = replace(asphalt_run, streams={**asphalt_run.streams, "wheels": asphalt_run.streams[
+        "wheels"].assign(vel_l=lambda w: 0.3 + 0.0 * w.t_s,
+                         vel_r=lambda w: 0.3 + 0.4 * np.sin(0.5 * w.t_s))})
+    rep = replay_module.replay_run(run, replay_module.ReplaySettings(merge_subresolution=False))
+    rel = rep.t_s - rep.t_s[0]
+    vl, vr = np.interp(seen["t"], rel, rep.vel_l), np.interp(seen["t"], rel, rep.vel_r)
+    v, w = skid_steer_forward(vl, vr, HUSKY.track_m)
+    np.testing.assert_array_equal(seen["twist"], np.column_stack([v, np.zeros_like(v), w]))
+    omega, _, clipped = wheel_commands(seen["vehicle"], seen["geometry"], seen["twist"])
+    assert not clipped.any()
+    r_w = seen["geometry"].wheel_radius_m
+    np.testing.assert_allclose(omega * r_w, np.column_stack([vl, vr]), rtol=0, atol=1e-12)
+    # the right side faster: a left turn, positive yaw rate in the replay as in the command
+    turning = (rep.vel_r - rep.vel_l) > 0.2
+    assert np.all(rep.yaw_rate[turning & (rel > 3)] > 0)
+
+
+def test_the_current_ceilings_side_speeds_are_the_measured_sides(asphalt_run):
+    """The current ceiling's regressor |v_side| is rebuilt from the frame's commanded speed
+    and yaw rate (skid_steer_forward of the measured sides): side 0 is the left wheel's
+    record, side 1 the right's (a swapped or mis-signed inverse fed each side the other's)."""
+    from terrain.audit.ceiling import _side_speed
+    from terrain.audit.replay import replay_run
+    from terrain.audit.frames import prepare_frame
+    from terrain.vehicles import HUSKY
+
+    rep = replay_run(asphalt_run)
+    frame = prepare_frame(asphalt_run, rep)
+    for side, v in enumerate((rep.vel_l, rep.vel_r)):
+        np.testing.assert_allclose(_side_speed(frame, side, HUSKY.track_m), np.abs(v),
+                                   rtol=0, atol=1e-12)
