@@ -87,6 +87,7 @@ from scipy.ndimage import median_filter
 from terrain.audit.frames import CURVE, SPIN, STOP, STRAIGHT, AuditFrame
 from terrain.errors import (ConfigError, TerrainError, config_integer, config_numbers,
                             config_positive, duplicated, indexed)
+from terrain.sim.effects import TURN_RATE_SCALE_RAD_S
 from terrain.vehicles.icr import icr_expansion_factor, inverse_icr_factor
 
 
@@ -254,7 +255,7 @@ class EffectSettings:
     """
 
     turn_ref_rad_s: float = 0.5
-    coulomb_scale_rad_s: float = 0.1
+    coulomb_scale_rad_s: float = TURN_RATE_SCALE_RAD_S
     immobile_ratio: float = 0.3
     immobile_smooth_s: float = 1.0
     min_pitch_spread_rad: float = 0.01
@@ -650,7 +651,7 @@ class CurrentParams:
     form: str | None = None
     k_a_per_rad: float = 0.0
     turn_ref_rad_s: float = 0.5
-    coulomb_scale_rad_s: float = 0.1
+    coulomb_scale_rad_s: float = TURN_RATE_SCALE_RAD_S
     n_straight: int = 0
     n_without_pitch: int = 0
     n_outside_imu: int = 0

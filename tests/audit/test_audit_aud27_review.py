@@ -121,3 +121,29 @@ def test_the_current_ceilings_side_speeds_are_the_measured_sides(asphalt_run):
     for side, v in enumerate((rep.vel_l, rep.vel_r)):
         np.testing.assert_allclose(_side_speed(frame, side, HUSKY.track_m), np.abs(v),
                                    rtol=0, atol=1e-12)
+
+
+def test_the_coulomb_turning_form_is_the_simulators_planted_turning_current():
+    """The audit's coulomb turning_resistance, ``k_a tanh(|x| / s) / tanh(turn_ref / s)``,
+    is the shape the simulator plants (motor_currents: ``value tanh(|r| / s)``) with one
+    scale s, the simulator's TURN_RATE_SCALE_RAD_S (read by both parameter sets, not
+    written twice): on a simulated run's own yaw rate, the planted extra current is the
+    audit's term with ``k_a = value tanh(turn_ref / s)`` on both sides."""
+    from terrain.audit.effects import CurrentParams, EffectSettings
+    from terrain.sim.effects import TURN_RATE_SCALE_RAD_S, Effects
+    from terrain.sim.simulate import motor_currents, simulate_with_physics
+    from terrain.vehicles import HUSKY
+
+    assert EffectSettings().coulomb_scale_rad_s == TURN_RATE_SCALE_RAD_S
+    assert CurrentParams().coulomb_scale_rad_s == TURN_RATE_SCALE_RAD_S
+    assert CurrentParams().turn_ref_rad_s == EffectSettings().turn_ref_rad_s
+    phys = simulate_with_physics(SimConfig(vehicle="husky", terrains=("ASPHALT",),
+                                           scenario="random", duration_s=10.0,
+                                           seed=2)).physics
+    value = 2.5
+    extra = (motor_currents(phys, HUSKY, Effects(turning_resistance=value))
+             - motor_currents(phys, HUSKY, Effects()))
+    params = CurrentParams(form="coulomb")
+    k_a = value * np.tanh(params.turn_ref_rad_s / params.coulomb_scale_rad_s)
+    term = k_a * params.turning_shape(phys.twist[:, 2])
+    np.testing.assert_allclose(extra, np.column_stack([term, term]), rtol=0, atol=1e-12)
