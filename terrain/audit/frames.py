@@ -358,7 +358,7 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
         imu = None
     if imu is not None:
         ti = imu[TIME].to_numpy(dtype=float)
-        rate = 1.0 / float(np.median(np.diff(ti)))
+        rate = run.rate_hz("imu")   # the run's own rate (median step)
         chans = lowpass(imu[["wz", "ax", "ay"]].to_numpy(dtype=float), rate,
                         settings.imu_cutoff_hz)
         lag = estimate_lag_track(t, x, ti, chans[:, 0], lag_settings,

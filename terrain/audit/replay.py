@@ -412,7 +412,7 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
     vel_l = wheels["vel_l"].to_numpy(dtype=float)
     vel_r = wheels["vel_r"].to_numpy(dtype=float)
     if settings.input_cutoff_hz is not None:
-        wheel_rate_hz = 1.0 / float(np.median(np.diff(t_w)))
+        wheel_rate_hz = run.rate_hz("wheels")   # the run's own rate (median step)
         vel_l = lowpass(vel_l, wheel_rate_hz, settings.input_cutoff_hz)
         vel_r = lowpass(vel_r, wheel_rate_hz, settings.input_cutoff_hz)
     dt = 1.0 / float(settings.physics_rate_hz)

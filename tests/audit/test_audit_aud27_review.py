@@ -147,3 +147,30 @@ def test_the_coulomb_turning_form_is_the_simulators_planted_turning_current():
     k_a = value * np.tanh(params.turn_ref_rad_s / params.coulomb_scale_rad_s)
     term = k_a * params.turning_shape(phys.twist[:, 2])
     np.testing.assert_allclose(extra, np.column_stack([term, term]), rtol=0, atol=1e-12)
+
+
+def test_the_replay_and_the_frame_filter_at_the_runs_own_stream_rates(asphalt_run,
+                                                                      monkeypatch):
+    """The wheel input low-pass (input_cutoff_hz) and the IMU low-pass run at the streams'
+    rates as the Run gives them (Run.rate_hz: the median step), the rate terrain audit's
+    clipping note reads: on timestamps with jitter the two are one number."""
+    from terrain.audit import frames as frames_module
+    from terrain.audit import replay as replay_module
+
+    rng = np.random.default_rng(0)
+    streams = {k: s.assign(t_s=s.t_s + rng.uniform(0.0, 2e-3, len(s)))
+               for k, s in asphalt_run.streams.items() if k in ("wheels", "imu")}
+    run = replace(asphalt_run, streams=streams)
+    rates, lowpass = [], replay_module.lowpass
+
+    def spy(values, rate_hz, cutoff_hz, padtype="odd"):
+        rates.append(float(rate_hz))
+        return lowpass(values, rate_hz, cutoff_hz, padtype)
+
+    monkeypatch.setattr(replay_module, "lowpass", spy)
+    monkeypatch.setattr(frames_module, "lowpass", spy)
+    rep = replay_module.replay_run(run, replay_module.ReplaySettings(input_cutoff_hz=2.0))
+    assert rates[:2] == [run.rate_hz("wheels")] * 2       # vel_l, vel_r
+    rates.clear()
+    frames_module.prepare_frame(run, rep)
+    assert rates[0] == run.rate_hz("imu")                 # wz, ax, ay
