@@ -42,6 +42,7 @@ from terrain.errors import (ConfigError, DataFormatError, TimestampError, config
 from terrain.run import TIME, Run, times_out_of_order
 from terrain.sim.dynamics import integrate
 from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_a
+from terrain.sim.simulate import SimConfig
 from terrain.terramechanics.catalogue import TerrainParams, get_terrain
 from terrain.vehicles import get_vehicle, skid_steer_forward
 
@@ -92,7 +93,7 @@ class ReplaySettings:
         (``benchmarks/replay_input_lowpass.py``, docs/physics_v2.md).
     """
 
-    physics_rate_hz: float = 100.0
+    physics_rate_hz: float = SimConfig.physics_rate_hz
     output_cutoff_hz: float = 2.0
     speed_headroom: float = 1.5
     merge_subresolution: bool = True

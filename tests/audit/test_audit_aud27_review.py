@@ -200,3 +200,24 @@ def test_the_sweeps_replayed_chi_is_taken_on_the_samples_of_the_measured_chi(asp
     want = icr_expansion_factor(f.sim_wz[m], f.commanded_yaw_rate[m])
     got = lateral_friction_sweep([short], f.terrain, (1.0,), settings).replay_chi.iloc[0]
     assert got == pytest.approx(want, rel=1e-9)
+
+
+def test_the_replay_runs_the_physics_at_the_simulators_default_rate(asphalt_run, monkeypatch):
+    """ReplaySettings' default physics rate is the simulator's (SimConfig's, read there, not
+    written twice): the baseline is the simulator as it runs by default, and a simulated run
+    is replayed on the grid it was simulated on (its meta rates_hz.physics)."""
+    from terrain.audit import replay as replay_module
+
+    assert replay_module.ReplaySettings().physics_rate_hz == SimConfig().physics_rate_hz
+    assert asphalt_run.meta["rates_hz"]["physics"] == SimConfig().physics_rate_hz
+    seen = {}
+    integrate = replay_module.integrate
+
+    def spy(vehicle, geometry, terrains, segment_m, t, *args, **kwargs):
+        seen["t"] = t
+        return integrate(vehicle, geometry, terrains, segment_m, t, *args, **kwargs)
+
+    monkeypatch.setattr(replay_module, "integrate", spy)
+    replay_module.replay_run(asphalt_run)
+    np.testing.assert_allclose(np.diff(seen["t"]),
+                               1.0 / asphalt_run.meta["rates_hz"]["physics"], rtol=1e-12)
