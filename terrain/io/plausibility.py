@@ -77,6 +77,16 @@ Unit and clock rules (:func:`check_run`)
         [:data:`DEAD_ACCEL_M_S2`, :data:`G_UNITS_BELOW_M_S2`) = [0.5, 3): the file is in g.
         Below 0.5 the sensor sees no gravity in either unit: a dead or disconnected
         accelerometer, a warning (assumed m/s^2).
+    ``imu_axes``
+        The body frame of the format is x forward, y left, z up (:mod:`terrain.run`): on
+        level ground ``az`` is +9.81 m/s^2, the ``g cos(pitch)`` of the filters'
+        accelerometer model (:mod:`terrain.estimation.skid_steer_slip`). Certain (refuse)
+        when the median ``az`` of the live samples (as for ``accel_units``) is below
+        :data:`Z_DOWN_BELOW` times their median specific force, itself gravity in m/s^2
+        (at least :data:`G_UNITS_BELOW_M_S2`): the z axis points down (a z-down frame, x
+        forward, y right, z down, as PX4 logs it), which turns ``wy``, ``wz`` and ``ay``
+        too; a ground vehicle does not drive pitched or rolled beyond 120 degrees (the
+        shipped runs: at least +0.87). Any vehicle.
     ``stuck_sensor``
         A channel that holds one exact value for long is a dead or stuck sensor: IMU channels
         for :data:`STUCK_IMU_S` (a live MEMS sensor never repeats a float for more than 2
@@ -257,6 +267,9 @@ G_UNITS_BELOW_M_S2 = 3.0
 #: median specific-force norm below which an accelerometer sees no gravity in either unit
 #: (half of gravity in g): a dead sensor, not a unit mistake, m/s^2
 DEAD_ACCEL_M_S2 = 0.5
+#: median ``az`` over the median specific-force norm below which the IMU's z axis points
+#: down (rule ``imu_axes``: more than 120 degrees from up; the shipped runs: >= 0.87)
+Z_DOWN_BELOW = -0.5
 _ACCEL = ("ax", "ay", "az")
 
 
@@ -296,11 +309,7 @@ def check_accel_units(frame: pd.DataFrame, path, found: list[str] | None = None)
         When the live samples' median specific force is in [0.5, 3) m/s^2: the file is in g.
     """
     acc = frame[list(_ACCEL)].to_numpy(dtype=float)
-    live = np.ones(len(frame), dtype=bool)
-    t = frame[TIME].to_numpy()
-    for spans in stuck_stretches({"imu": frame[[TIME, *_ACCEL]]}).values():
-        for a, b in spans:
-            live &= ~((t >= a) & (t <= b))
+    live = _live_accel(frame)
     if not live.any():
         return  # every sample in a stuck stretch: the stuck_sensor rule reports it
     median = float(np.median(np.linalg.norm(acc[live], axis=1)))
@@ -313,6 +322,38 @@ def check_accel_units(frame: pd.DataFrame, path, found: list[str] | None = None)
         raise UnitError(f"rule accel_units: median specific force {median:.2f} is far below "
                         "9.81 m/s^2; the file looks like units of g, expected m/s^2 (x 9.81)",
                         path, "az")
+
+
+def _live_accel(frame: pd.DataFrame) -> np.ndarray:
+    """``(n,)`` bool: the IMU rows outside its accelerometer's stuck stretches (rule
+    ``stuck_sensor``), on which the accelerometer rules judge it."""
+    live = np.ones(len(frame), dtype=bool)
+    t = frame[TIME].to_numpy()
+    for spans in stuck_stretches({"imu": frame[[TIME, *_ACCEL]]}).values():
+        for a, b in spans:
+            live &= ~((t >= a) & (t <= b))
+    return live
+
+
+def _check_imu_axes(imu: pd.DataFrame, path) -> None:
+    """Rule ``imu_axes``: UnitError for an IMU whose z axis points down (every consumer
+    takes ``az = g cos(pitch) > 0`` and ``wz > 0`` turning left)."""
+    if not all(c in imu.columns for c in _ACCEL):
+        return
+    acc = imu[list(_ACCEL)].to_numpy(dtype=float)
+    live = _live_accel(imu) & np.isfinite(acc).all(axis=1)
+    if not live.any():
+        return
+    median = float(np.median(np.linalg.norm(acc[live], axis=1)))
+    if median < G_UNITS_BELOW_M_S2:     # in g, or dead: rule accel_units'
+        return
+    az = float(np.median(acc[live, 2]))
+    if az < Z_DOWN_BELOW * median:
+        raise UnitError(f"rule imu_axes: median az {az:.2f} m/s^2 against a median specific "
+                        f"force of {median:.2f}: the IMU's z axis points down (a z-down frame, "
+                        "x forward, y right, z down?); the format's body frame is x forward, "
+                        "y left, z up (az +9.81 on level ground, wz > 0 turning left): negate "
+                        "wy, wz, ay and az", path, "az")
 
 
 def check_ranges(frame: pd.DataFrame, path, columns: Mapping[str, str],
@@ -494,12 +535,15 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     ClockError
         Streams whose time spans do not overlap.
     UnitError
-        A gyro certainly in deg/s, wheel speeds certainly in km/h.
+        An IMU whose z axis points down (rule ``imu_axes``), a gyro certainly in deg/s,
+        wheel speeds certainly in km/h.
     """
     found: list[str] = []
     unused: dict[str, float] = {}
     imu, wheels = streams.get("imu"), streams.get("wheels")
     src = (lambda s: files.get(s, run_id))
+    if imu is not None and len(imu):
+        _check_imu_axes(imu, src("imu"))
     if imu is not None and wheels is not None and len(imu) and len(wheels):
         clocks = _check_clocks(imu, wheels, src, found, time_column)
         unused = {k: v for k, v in clocks.items() if v > 0}
