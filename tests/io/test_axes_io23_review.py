@@ -62,6 +62,12 @@ def _frd(imu: pd.DataFrame) -> pd.DataFrame:
     return imu.assign(**{c: -imu[c] for c in ("wy", "wz", "ay", "az")})
 
 
+def _swapped(wheels: pd.DataFrame) -> pd.DataFrame:
+    """The wheel stream with its left and right columns exchanged."""
+    return wheels.rename(columns={"vel_l": "vel_r", "vel_r": "vel_l", "cur_l": "cur_r",
+                                  "cur_r": "cur_l"})[list(wheels.columns)]
+
+
 def _quiet_check_run(streams):
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -84,6 +90,22 @@ def test_an_imu_in_the_filters_own_axes_passes_and_in_a_z_down_frame_is_refused(
     assert (info.value.path, info.value.column) == ("imu", "az")
     # the accelerometer's unit rule judges the norm alone: the z-down IMU is in m/s^2
     check_accel_units(_frd(streams["imu"]), "imu", found=[])
+
+
+@settings(max_examples=30, deadline=None)
+@given(turns, st.floats(0.2, 0.9), st.integers(0, 2**16))
+def test_wheel_sides_of_the_filters_own_convention_pass_and_swapped_are_refused(
+        levels, speed, seed):
+    streams = _consumer_streams(np.repeat(levels, 150), speed, seed=seed)
+    _quiet_check_run(streams)
+    with pytest.raises(UnitError, match="rule wheel_sides"):
+        _quiet_check_run({"imu": streams["imu"], "wheels": _swapped(streams["wheels"])})
+
+
+def test_a_straight_drive_judges_no_wheel_side():
+    # no turn: the sides cannot be told apart, and nothing is refused
+    streams = _consumer_streams(np.zeros(1000), 0.5)
+    _quiet_check_run({"imu": streams["imu"], "wheels": _swapped(streams["wheels"])})
 
 
 @pytest.fixture(scope="module")
@@ -120,3 +142,11 @@ def test_a_run_with_an_imu_in_a_z_down_frame_is_refused_by_the_readers(tmp_path,
     with pytest.raises(UnitError, match="rule imu_axes") as info:
         _read_back(tmp_path, run)
     assert info.value.column == "az" and str(info.value.path).endswith("imu_00.csv")
+
+
+def test_a_run_with_its_wheel_sides_swapped_is_refused_by_the_readers(tmp_path, sim_run):
+    streams = dict(sim_run.streams, wheels=_swapped(sim_run.streams["wheels"]))
+    run = Run(sim_run.run_id, "sim", sim_run.terrain, streams, vehicle="husky")
+    with pytest.raises(UnitError, match="rule wheel_sides") as info:
+        _read_back(tmp_path, run)
+    assert info.value.column == "velL" and str(info.value.path).endswith("pro_00.csv")
