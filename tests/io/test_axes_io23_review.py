@@ -150,3 +150,21 @@ def test_a_run_with_its_wheel_sides_swapped_is_refused_by_the_readers(tmp_path, 
     with pytest.raises(UnitError, match="rule wheel_sides") as info:
         _read_back(tmp_path, run)
     assert info.value.column == "velL" and str(info.value.path).endswith("pro_00.csv")
+
+
+@pytest.mark.parametrize("noise, refused", [(0.25, True), (0.5, False)])
+def test_wheel_sides_are_judged_on_the_gyro_units_evidence_a_correlation_of_half(noise, refused):
+    # swapped sides under a noisy gyro: refused once the (negative) correlation reaches the
+    # gyro_units rule's 0.5, not below it (no certainty then)
+    streams = _consumer_streams(np.repeat([0.3, -0.3, 0.0, 0.3], 150), 0.5)
+    rng = np.random.default_rng(5)
+    imu = streams["imu"].assign(wz=streams["imu"]["wz"] + noise * rng.standard_normal(600))
+    wheels = _swapped(streams["wheels"])
+    dv = wheels["vel_r"] - wheels["vel_l"]
+    corr = np.corrcoef(dv, np.interp(wheels[TIME], imu[TIME], imu["wz"]))[0, 1]
+    assert (-0.8 < corr < -0.5) if refused else (-0.5 < corr < -0.2)
+    if refused:
+        with pytest.raises(UnitError, match="rule wheel_sides"):
+            _quiet_check_run({"imu": imu, "wheels": wheels})
+    else:
+        _quiet_check_run({"imu": imu, "wheels": wheels})
