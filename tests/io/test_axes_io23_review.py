@@ -168,3 +168,16 @@ def test_wheel_sides_are_judged_on_the_gyro_units_evidence_a_correlation_of_half
             _quiet_check_run({"imu": imu, "wheels": wheels})
     else:
         _quiet_check_run({"imu": imu, "wheels": wheels})
+
+
+def test_the_husky_bounds_of_the_unit_rules_are_the_vehicle_models():
+    # rule wheel_speed_units judges against the top speed that the vehicle model's motor
+    # limit gives, and the gyro rules' slope bound holds for every skid-steer track
+    from terrain.io.plausibility import MAX_YAW_SLOPE_PER_M, VEHICLE_LIMITS
+    from terrain.vehicles import get_vehicle
+
+    husky = get_vehicle("husky")
+    top = husky.motor.max_wheel_speed_rad_s * husky.wheel_radius_m
+    assert VEHICLE_LIMITS["husky"].top_speed_m_s == pytest.approx(top, rel=1e-12)
+    for name in ("husky", "tracked"):
+        assert 1.0 / get_vehicle(name).track_m <= MAX_YAW_SLOPE_PER_M
