@@ -250,11 +250,17 @@ def main(args: argparse.Namespace) -> int:
                           f"{len(args.seeds)} seeds pooled; per seed {per_seed}); "
                           f"recall {_fmt(row['recall'])}")
                 report[f"streams_{kind}"] = summary
+        vehicles = sorted({r.vehicle for r in runs})
         for kind in args.kinds if args.model_out else []:
             model = fit_stream_model(RECIPES[kind], runs)
+            # the fitted model's own metadata (the track its windows used, the training
+            # runs' sample steps that judge a live stream's first steps) and the runs'
+            # vehicle, as `terrain train` saves them: `terrain stream` reads them back
             path = save_model(args.model_out / kind, model.pipeline, model.channels,
                               model.window, list(model.classes),
-                              {"dataset": "borealtc", "recipe": str(RECIPES[kind])})
+                              {**model.metadata, "dataset": "borealtc",
+                               "vehicle": vehicles[0] if len(vehicles) == 1 else None,
+                               "recipe": str(RECIPES[kind])})
             print(f"saved the {kind} streaming model to {path}")
         run.log_dict(report, "stream_eval.json")
     if report:  # --part none only saves models

@@ -77,3 +77,38 @@ def test_every_documented_compare_command_passes_the_commands_own_checks(argv, t
         config_from_args(args)
     except TerrainError as exc:
         pytest.fail(f"terrain compare {' '.join(argv)}: {exc}")
+
+
+@pytest.fixture(scope="module")
+def few_borealtc_runs(borealtc_runs):
+    """Two runs of each of two BorealTC terrains (seconds to fit a recipe on)."""
+    out = []
+    for terrain in ("ICE", "SNOW"):
+        out += [r for r in borealtc_runs if r.terrain == terrain and r.has_imu][:2]
+    return out
+
+
+def test_stream_eval_saves_the_model_it_fitted_with_its_metadata(few_borealtc_runs, tmp_path,
+                                                                 monkeypatch, capsys):
+    # stream-eval --model-out saved the fitted streaming model with {"dataset", "recipe"}
+    # only: the channel_steps_s and track_m that fit_stream_model gives it (as terrain
+    # train's model has them) were dropped, so `terrain stream --model DIR/wheels` judged a
+    # stream's first steps for gaps by their own instead of the training runs' steps
+    import pipelines.stream_eval as stream_eval
+    from cli_helpers import RecordingRun
+
+    from terrain.cli import main
+    from terrain.serving import load_stream_model
+    from terrain.serving.recipes import RECIPES, fit_stream_model
+
+    monkeypatch.setattr(stream_eval, "load_dataset", lambda name: few_borealtc_runs)
+    monkeypatch.setattr(stream_eval, "tracked_run", RecordingRun())
+    assert main(["stream-eval", "--part", "none", "--kinds", "wheels", "--model-out",
+                 str(tmp_path / "m")]) == 0
+    fitted = fit_stream_model(RECIPES["wheels"], few_borealtc_runs)
+    saved = load_stream_model(tmp_path / "m" / "wheels")
+    assert saved.channels == fitted.channels
+    for key, value in fitted.metadata.items():
+        assert saved.metadata.get(key) == pytest.approx(value), key
+    # and the vehicle of its runs, as terrain train writes it
+    assert saved.metadata.get("vehicle") == "husky"
