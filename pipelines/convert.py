@@ -25,7 +25,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="folder in the layout <TERRAIN>/{imu_XX,pro_XX}.csv")
     parser.add_argument("--dataset", required=True, choices=DATASETS)
     parser.add_argument("--data-dir", type=output_dir, default=None,
-                        help="output data/ folder (default: the project's data/)")
+                        help="output data/ folder (default: the project's data/, or "
+                             "TERRAIN_DATA_DIR when set, the folder the other commands read)")
 
 
 def main(args: argparse.Namespace) -> int:

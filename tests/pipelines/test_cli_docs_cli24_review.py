@@ -112,3 +112,27 @@ def test_stream_eval_saves_the_model_it_fitted_with_its_metadata(few_borealtc_ru
         assert saved.metadata.get(key) == pytest.approx(value), key
     # and the vehicle of its runs, as terrain train writes it
     assert saved.metadata.get("vehicle") == "husky"
+
+
+def test_convert_writes_where_slip_table_reads_and_its_help_says_so(tmp_path, monkeypatch):
+    # convert's --help said "(default: the project's data/)", but both convert (writing)
+    # and slip-table / cv (reading) default to TERRAIN_DATA_DIR when it is set, which
+    # slip-table's --help names
+    import pipelines.convert as convert
+
+    from terrain.cli import main
+    from terrain.io.shipped import default_data_dir
+
+    monkeypatch.setenv("TERRAIN_DATA_DIR", str(tmp_path / "d"))
+    written = []
+    monkeypatch.setattr(convert, "convert_dataset",
+                        lambda src, dataset, data_dir: written.append(Path(data_dir)) or {})
+    monkeypatch.setattr(convert, "read_shipped", lambda *a, **k: [])
+    monkeypatch.setattr(convert, "input_report",
+                        lambda runs: type("R", (), {"text": lambda self: ""})())
+    (tmp_path / "csv").mkdir()
+    main(["convert", str(tmp_path / "csv"), "--dataset", "borealtc"])
+    assert written == [default_data_dir()] == [tmp_path / "d"]
+    for sub in ("convert", "slip-table"):
+        text = _subparser(sub)._option_string_actions["--data-dir"].help
+        assert "TERRAIN_DATA_DIR" in text, (sub, text)
