@@ -4,7 +4,8 @@ Grid: model x signal set x window length x dataset x seed, each cell a
 StratifiedGroupKFold(5) CV grouped by run; decision history k (probabilities averaged over the
 last k windows of a run) reported for every cell. Cells run through joblib: --backend dask
 --address tcp://HOST:8786 sends them to a Dask cluster, --backend ray to Ray, unchanged.
-Writes compare_table.md/.csv (mean and spread over seeds), compare_cells.csv and compare.png
+Writes compare_table.md/.csv (mean and spread over seeds), compare_cells.csv, predictions.csv
+(every cell's out-of-fold windows, which benchmarks/merge_compare.py votes on) and compare.png
 (and compare_grid.png / compare_grid.md, accuracy over signal set x window, when the grid
 spans several; otherwise those of an earlier grid in --out are removed).
 --protocol paper runs the papers' LEAKY 5 s partition protocol instead (1.7 s windows; labelled

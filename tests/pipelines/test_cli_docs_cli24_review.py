@@ -152,3 +152,15 @@ def test_the_live_sim_classifier_keeps_the_training_steps_a_train_model_keeps(tm
                                cache_dir=tmp_path, controlled_runs=False)
     metadata = load_stream_model(folder).metadata
     assert metadata.get("channel_steps_s"), sorted(metadata)
+
+
+def test_compare_help_names_every_file_compare_writes():
+    # the description listed compare_table.md/.csv, compare_cells.csv, compare.png and the
+    # grid's files, not predictions.csv, which README names and merge_compare.py reads
+    from pipelines.compare import SUMMARY_FILES
+
+    text = " ".join(_subparser("compare").description.split())
+    named = set(re.findall(r"[\w.]+\.(?:csv|md|png)\b", text))
+    named |= {f"compare_table.{e}" for e in ("md", "csv")} if "compare_table.md/.csv" in text \
+        else set()
+    assert set(SUMMARY_FILES) | {"compare_cells.csv"} <= named, text
