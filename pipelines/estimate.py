@@ -31,7 +31,7 @@ from pathlib import Path
 
 from features.slip_outputs import missing_slip_inputs, slip_model_outputs
 from pipelines.arguments import check_derived_output, input_folder, input_path, output_file
-from pipelines.slip_model import resolve_slip_model
+from pipelines.slip_model import REGISTERED_SLIP_MODEL, resolve_slip_model
 from terrain.errors import ConfigError, DataFormatError, EstimationError
 from terrain.estimation.ekf import Gate
 from terrain.estimation.runner import MAX_RATE_HZ, MIN_RATE_HZ, check_rate_hz
@@ -74,7 +74,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     # as text: a model URI read as a path lost a slash of its '//' (s3:/bucket/...)
     parser.add_argument("--slip-model-dir", type=input_path, default=None,
                         help="learned slip model (MLflow model dir or model URI; an error "
-                             "when it cannot be loaded; default: registered slip-husky, "
+                             "when it cannot be loaded; default: registered "
+                             f"{REGISTERED_SLIP_MODEL}, "
                              "physics with a note when there is none)")
 
 

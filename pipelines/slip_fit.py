@@ -21,6 +21,7 @@ from features.slip_features import (SLIP_WINDOW, one_hot_probabilities, slip_fea
                                     slip_table, slip_windows, terrain_columns)
 from pipelines.arguments import (DistinctSeeds, DistinctValues, option_params, output_dir,
                                  seed_value, terrain_name)
+from pipelines.slip_model import REGISTERED_SLIP_MODEL
 from terrain.errors import ConfigError
 from terrain.io.jsonfile import staged_outputs, strict_json
 from terrain.io.shipped import DATASET_SPECS, load_dataset
@@ -77,7 +78,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--measured", default=None, choices=list(DATASET_SPECS),
                         help="also check the model on a shipped measured dataset (borealtc)")
     parser.add_argument("--no-register", action="store_true",
-                        help="log the model without registering it as slip-husky")
+                        help=f"log the model without registering it as {REGISTERED_SLIP_MODEL}")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -198,7 +199,7 @@ def main(args: argparse.Namespace) -> int:
             run.log_table(checks, "measured_checks.csv")
             print(checks.round(4).to_string(index=False))
         uri = run.log_sklearn_model(model, "slip-model", X.iloc[:5],
-                                    None if args.no_register else "slip-husky", TRUSTED)
+                                    None if args.no_register else REGISTERED_SLIP_MODEL, TRUSTED)
     steady_errors = errors[(errors.windows == "steady_straight")
                            & errors.terrain.isin(TARGET_TERRAINS)]
     if len(steady_errors):
