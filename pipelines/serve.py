@@ -35,6 +35,7 @@ from typing import Any
 
 from pipelines.arguments import (add_smoothing, model_dir, model_folder, positive_number,
                                  probability, smoothing_from_args)
+from terrain.control import DesiredSlipConfig
 from terrain.errors import ConfigError
 from terrain.serving import load_stream_model
 from terrain.serving.http import (HEADER_TIMEOUT_S, MAX_CONNECTIONS, MAX_IN_FLIGHT, MIN_IDLE_S,
@@ -65,8 +66,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="time between decisions, s (at least one period of the "
                              "model's clock)")
     add_smoothing(parser)
-    parser.add_argument("--min-confidence", type=probability, default=0.5,
-                        help="smoothed probability below which the fallback target is used")
+    parser.add_argument("--min-confidence", type=probability,
+                        default=DesiredSlipConfig().min_confidence,
+                        help="smoothed probability below which the fallback target is used "
+                             "(default: the desired-slip table's, %(default)s)")
     parser.add_argument("--max-body-bytes", type=int, default=8_000_000,
                         help="largest request body, bytes (larger: HTTP 413)")
     parser.add_argument("--max-decisions", type=int, default=MAX_DECISIONS,

@@ -40,8 +40,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--hop-s", type=positive_number, default=0.5,
                         help="time between decisions, s")
     add_smoothing(parser)
-    parser.add_argument("--min-confidence", type=probability, default=0.5,
-                        help="smoothed probability below which the fallback target is used")
+    parser.add_argument("--min-confidence", type=probability,
+                        default=DesiredSlipConfig().min_confidence,
+                        help="smoothed probability below which the fallback target is used "
+                             "(default: the desired-slip table's, %(default)s)")
 
 
 def main(args: argparse.Namespace) -> int:
