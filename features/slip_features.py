@@ -37,6 +37,7 @@ from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
                                   pitch_std_from_accelerometer)
+from terrain.vehicles import body_rates
 
 #: Channels whose window statistics feed the slip models.
 SLIP_CHANNELS = ("cur_l", "cur_r", "vel_l", "vel_r", "vel_diff", "cur_diff",
@@ -236,14 +237,15 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         cols[f"{c}__std"] = stds[:, ch[c]]
     n_s = x.shape[-1]
     tc = (np.arange(n_s) - 0.5 * (n_s - 1)) / rate_hz
-    v_mean = 0.5 * (x[:, ch["vel_l"]] + x[:, ch["vel_r"]])
+    # mean rim speed and the wheel yaw rate (v_R - v_L) / B of the vehicle given (the windows
+    # may come from another's runs): the skid-steer kinematics' one home, ideal drive chi = 1
+    v_mean, wheel_yaw_rate = body_rates(x[:, ch["vel_l"]], x[:, ch["vel_r"]],
+                                        vehicle.track_m, 1.0)
     slope = (v_mean * tc).sum(axis=-1) / (tc ** 2).sum()
     cols["vel_mean__slope"] = slope
     pitch = pitch_from_accelerometer(cols["ax__mean"], cols["ay__mean"], cols["az__mean"], slope)
     cols["pitch"] = pitch
-    # the wheel yaw rate of the vehicle given (the windows may come from another's runs)
-    cols["inv_chi"] = regression_gain(x[:, ch["wz"]], x[:, ch["vel_diff"]] / vehicle.track_m,
-                                      INV_CHI_FLOOR_RAD_S)
+    cols["inv_chi"] = regression_gain(x[:, ch["wz"]], wheel_yaw_rate, INV_CHI_FLOOR_RAD_S)
     if probabilities is not None:
         # (a boolean mask of the terrain seen was read as probabilities 0 and 1)
         refuse_booleans(ConfigError, "slip features", **{

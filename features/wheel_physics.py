@@ -39,6 +39,7 @@ from features.windows import (HUSKY_TRACK_M, as_windows, refuse_changed_layout,
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
                             config_positive, duplicated, first_items, real_arrays)
 from terrain.run import WHEEL_CHANNELS
+from terrain.vehicles.skid_steer import body_rates
 
 #: Feature names of one time scale, in output order.
 PHYSICS_FEATURES = (
@@ -103,8 +104,8 @@ def _physics_kernel(vel_l, vel_r, cur_l, cur_r, dt, track_m, v0, w0, ridge,
     c, d = np.empty(4), np.empty(2)
     for w in range(n_windows):
         for s in range(n):
-            v[s] = 0.5 * (vel_l[w, s] + vel_r[w, s])
-            om[s] = (vel_r[w, s] - vel_l[w, s]) / track_m
+            # the skid-steer kinematics' one home (seed 000 eq. 2), ideal drive chi = 1
+            v[s], om[s] = body_rates(vel_l[w, s], vel_r[w, s], track_m, 1.0)
             i_sum[s] = cur_l[w, s] + cur_r[w, s]
             i_diff[s] = cur_r[w, s] - cur_l[w, s]
         if n > 1:                        # numpy.gradient: central inside, one-sided ends

@@ -25,7 +25,7 @@ from terrain.errors import (ConfigError, MissingColumnError, ShapeError, config_
                             config_numbers, config_positive, duplicated, first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
-from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, get_vehicle
+from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, body_rates, get_vehicle
 
 #: Husky A200 track width B, m, the wheel-odometry yaw rate channel's default: the vehicle's
 #: parameter :attr:`terrain.vehicles.HuskyParams.track_m` (source documented there).
@@ -190,9 +190,10 @@ def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray
         track turned it the other way, NaN made it NaN, all without a word).
     """
     config_positive("derived_wheel_arrays", track_m=track_m)
-    vel_diff = vel_r - vel_l
-    return {"vel_mean": 0.5 * (vel_l + vel_r), "vel_diff": vel_diff, "cur_sum": cur_l + cur_r,
-            "cur_diff": cur_r - cur_l, "yaw_rate_wheels": vel_diff / track_m}
+    # the skid-steer kinematics' one home (seed 000 eq. 2), ideal drive chi = 1
+    vel_mean, yaw_rate = body_rates(vel_l, vel_r, track_m, 1.0)
+    return {"vel_mean": vel_mean, "vel_diff": vel_r - vel_l, "cur_sum": cur_l + cur_r,
+            "cur_diff": cur_r - cur_l, "yaw_rate_wheels": yaw_rate}
 
 
 def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) -> pd.DataFrame:
