@@ -19,6 +19,7 @@ from features import calculators
 from features.windows import (ALL_CHANNELS, as_windows, refuse_changed_layout,
                               refuse_non_finite)
 from terrain.errors import ConfigError, config_positive, duplicated, first_items
+from terrain.io.align import DEFAULT_RATE_HZ
 from terrain.run import IMU_CHANNELS
 
 DEFAULT_STATS = tuple(calculators.STATISTICS)
@@ -92,7 +93,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
     channels : tuple of str
         Names of the input channels, in the order of axis 1 of ``X``.
     rate_hz : float
-        Sampling rate of the windows, Hz.
+        Sampling rate of the windows, Hz; default the aligned clock's
+        (:data:`terrain.io.align.DEFAULT_RATE_HZ`, 50 Hz).
     stats : tuple of str
         Statistics from :data:`features.calculators.STATISTICS` computed for every channel.
     bands_hz : tuple of (float, float) or None
@@ -117,7 +119,8 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         scikit-learn's ``Pipeline`` and ``FeatureUnion`` read it from their first step.
     """
 
-    def __init__(self, channels: tuple[str, ...] = ALL_CHANNELS, rate_hz: float = 50.0,
+    def __init__(self, channels: tuple[str, ...] = ALL_CHANNELS,
+                 rate_hz: float = DEFAULT_RATE_HZ,
                  stats: tuple[str, ...] = DEFAULT_STATS,
                  bands_hz: tuple[tuple[float, float], ...] | None = None,
                  band_width_hz: float = 2.5,

@@ -38,6 +38,7 @@ from features.windows import (HUSKY_TRACK_M, as_windows, refuse_changed_layout,
                               refuse_non_finite)
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_numbers,
                             config_positive, duplicated, first_items, real_arrays)
+from terrain.io.align import DEFAULT_RATE_HZ
 from terrain.run import WHEEL_CHANNELS
 from terrain.vehicles.skid_steer import body_rates
 
@@ -256,7 +257,9 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
     channels : tuple of str
         Channel order of axis 1 of the windows; must include ``vel_l, vel_r, cur_l, cur_r``.
     rate_hz : float
-        Sampling rate of the windows, Hz.
+        Sampling rate of the windows, Hz; default the aligned clock's
+        (:data:`terrain.io.align.DEFAULT_RATE_HZ`, 50 Hz), at which
+        :func:`features.windows.make_windows` cuts by default.
     short_s : float or None
         Length of the second, recent time scale, s; ``None``: whole window only. Also
         whole window only (no ``__last...s`` names) where it rounds to fewer than 3
@@ -276,7 +279,8 @@ class WheelPhysicsFeatures(TransformerMixin, BaseEstimator):
         scikit-learn's ``Pipeline`` and ``FeatureUnion`` read it from their first step.
     """
 
-    def __init__(self, channels: tuple[str, ...] = WHEEL_CHANNELS, rate_hz: float = 10.0,
+    def __init__(self, channels: tuple[str, ...] = WHEEL_CHANNELS,
+                 rate_hz: float = DEFAULT_RATE_HZ,
                  short_s: float | None = 2.0, track_m: float = HUSKY_TRACK_M,
                  ridge: float = 1e-3) -> None:
         self.channels = channels

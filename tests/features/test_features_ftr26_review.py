@@ -155,3 +155,25 @@ def test_viscous_current_is_per_rad_s_of_body_rates_yaw_rate(amp, k, track):
                            ridge=1e-12)
     d1 = out[0, PHYSICS_FEATURES.index("cur_diff__viscous_a_s_per_rad")]
     np.testing.assert_allclose(d1, k, rtol=1e-6)
+
+
+def test_default_wheel_physics_read_default_windows_at_their_rate():
+    """WheelPhysicsFeatures defaulted to 10 Hz while make_windows cuts on the 50 Hz aligned
+    clock by default: the default features of default windows read an acceleration 5 times
+    too small (m/s^2 per 0.1 s step instead of 0.02 s) and named a 20-sample tail of 0.4 s
+    '__last2s', without a word. Both now default to the aligned clock: the default features
+    of a simulated run's default windows equal those at the windows' own rate, and
+    accel__abs_mean is the mean |dv/dt| of the windows' vel_mean in m/s^2."""
+    run = simulate(SimConfig(vehicle="husky", terrains=("SANDY_LOAM",),
+                             scenario="straight_accel", duration_s=6.0, seed=3))
+    ws = make_windows([run], "wheels")
+    default = WheelPhysicsFeatures(channels=ws.channels).fit(ws.X)
+    own = WheelPhysicsFeatures(channels=ws.channels, rate_hz=ws.rate_hz).fit(ws.X)
+    assert list(default.get_feature_names_out()) == list(own.get_feature_names_out())
+    np.testing.assert_array_equal(default.transform(ws.X), own.transform(ws.X))
+    ch = list(ws.channels)
+    accel = np.abs(np.gradient(ws.X[:, ch.index("vel_mean")], 1.0 / ws.rate_hz, axis=1))
+    col = list(default.get_feature_names_out()).index("accel__abs_mean")
+    assert accel.mean(axis=1).max() > 0.1                   # the run accelerates
+    np.testing.assert_allclose(default.transform(ws.X)[:, col], accel.mean(axis=1),
+                               rtol=1e-12)

@@ -23,6 +23,8 @@ def test_a_short_scale_or_rate_that_is_not_finite_is_refused_at_fit_naming_it(fi
 
 @pytest.mark.parametrize("short_s, names", [(None, 25), (0.0, 25), (-1.0, 25), (2.0, 50)])
 def test_a_finite_short_scale_keeps_its_documented_meaning(short_s, names):
-    # None, or a scale rounding to fewer than 3 samples: whole window only (documented)
+    # None, or a scale rounding to fewer than 3 samples: whole window only (documented);
+    # 4 s windows at 10 Hz (the rate is given: the default is the 50 Hz aligned clock's)
     X = np.ones((2, 4, 40))
-    assert len(WheelPhysicsFeatures(short_s=short_s).fit(X).get_feature_names_out()) == names
+    assert len(WheelPhysicsFeatures(rate_hz=10.0, short_s=short_s).fit(X)
+               .get_feature_names_out()) == names
