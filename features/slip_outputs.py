@@ -21,7 +21,7 @@ from terrain.run import Run
 from terrain.slip.physics import (PhysicsSlipSettings, physics_slip,
                                   pitch_std_from_accelerometer, run_pitch_prior)
 from terrain.terramechanics.catalogue import TERRAIN_NAMES
-from terrain.vehicles import get_vehicle
+from terrain.vehicles import HuskyParams, TrackedParams, get_vehicle
 
 
 def slip_model_outputs(run: Run, learned_model: Any | None = None,
@@ -67,8 +67,9 @@ def slip_model_outputs(run: Run, learned_model: Any | None = None,
         (:meth:`terrain.slip.learned.SlipRegressor.predict_std` with ``moment="variance"``;
         NaN for a model without a calibration). ``t_s`` is the time a window mean describes;
         the estimate is therefore not causal: a filter step uses up to half a window, 1 s, of
-        later data. None when the run lacks
-        currents or IMU, its terrain is not in the catalogue, or it is shorter than one window.
+        later data. None when the run is not of a skid-steer vehicle (``agrimaro``), lacks
+        currents or IMU, its terrain is not in the catalogue, or it is shorter than one window
+        (:func:`missing_slip_inputs` says which).
 
     Raises
     ------
@@ -140,16 +141,20 @@ def missing_slip_inputs(run: Run) -> str | None:
     Returns
     -------
     str or None
-        The first input the slip models lack, in words (no wheel stream, no motor currents,
-        no IMU, a terrain outside the catalogue, no complete window of
-        :data:`features.slip_features.SLIP_WINDOW`), for the user's note; None when every
-        input is there.
+        The first input the slip models lack, in words (not a skid-steer vehicle, no wheel
+        stream, no motor currents, no IMU, a terrain outside the catalogue, no complete
+        window of :data:`features.slip_features.SLIP_WINDOW`), for the user's note; None
+        when every input is there.
     """
     return _slip_windows(run)[1]
 
 
 def _slip_windows(run: Run) -> tuple[WindowSet | None, str | None]:
     # the slip windows of the run, or the first missing input in words
+    if not isinstance(get_vehicle(run.vehicle), (HuskyParams, TrackedParams)):
+        # (the AgriMaRo's wheels stream holds wheels 1 and 2, no left and right side, and
+        # its parameters no track: the features ended in a bare AttributeError)
+        return None, f"not a skid-steer vehicle ({run.vehicle}: no left and right side)"
     w = run.streams.get("wheels")
     if w is None:
         return None, "no wheel stream"

@@ -177,3 +177,17 @@ def test_default_wheel_physics_read_default_windows_at_their_rate():
     assert accel.mean(axis=1).max() > 0.1                   # the run accelerates
     np.testing.assert_allclose(default.transform(ws.X)[:, col], accel.mean(axis=1),
                                rtol=1e-12)
+
+
+def test_slip_outputs_of_a_run_without_left_and_right_sides_say_so():
+    """Vehicle names across the seam: an AgriMaRo run (terrain.run.VEHICLE_NAMES; its wheels
+    stream holds wheels 1 and 2, no left and right side, and its parameters no track) was
+    said to hold every input of the slip models (missing_slip_inputs None) while
+    slip_model_outputs ended in a bare AttributeError ('AgriMaRoParams' object has no
+    attribute 'track_m'); now it gives None and missing_slip_inputs says why."""
+    from features.slip_outputs import missing_slip_inputs, slip_model_outputs
+
+    run = simulate(SimConfig(vehicle="agrimaro", terrains=("GRASS",),
+                             scenario="straight_accel", duration_s=5.0, seed=1))
+    assert slip_model_outputs(run) is None
+    assert "not a skid-steer vehicle (agrimaro" in missing_slip_inputs(run)
