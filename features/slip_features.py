@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from features.calculators import mean, regression_gain, std
-from features.windows import HUSKY_TRACK_M, WindowConfig, WindowSet, make_windows
+from features.windows import WindowConfig, WindowSet, derived_track_m, make_windows
 from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
                             real_arrays, refuse_booleans)
 from terrain.io.align import interpolated_mean_count
@@ -336,7 +336,7 @@ def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndar
     return out
 
 
-def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRACK_M
+def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = None
                  ) -> pd.DataFrame:
     """True per-window ``slip_1``, ``slip_2``, ``chi`` and terrain from the ``truth`` streams.
 
@@ -346,8 +346,11 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
         The simulated runs the windows were cut from (each with a ``truth`` stream).
     ws : WindowSet
         Their windows.
-    track_m : float
-        Track width B, m.
+    track_m : float or None
+        Track width B of ``chi``, m; None (default): each run's own vehicle's,
+        :func:`features.windows.derived_track_m` of ``run.vehicle``, the track the windows'
+        derived wheel channels were made with (the Husky's made a tracked run's ``chi``
+        0.5708 / 0.393 times its own).
 
     Returns
     -------
@@ -367,11 +370,13 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
         ``track_m`` is not a finite number > 0 (0 made ``chi`` infinite or NaN, a negative
         track made it negative).
     """
-    config_positive("slip_targets", track_m=track_m)
+    if track_m is not None:
+        config_positive("slip_targets", track_m=track_m)
     by_id: Mapping[str, Run] = runs_by_id(runs, "slip_targets")
     out = pd.DataFrame(index=np.arange(len(ws)),
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
                        dtype=object)
+    tracks = np.full(len(ws), np.nan if track_m is None else float(track_m))
     for rid in pd.unique(ws.run_ids):
         run = by_id.get(rid)
         if run is None:     # (a bare KeyError before)
@@ -392,11 +397,13 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float = HUSKY_TRAC
         out.loc[sel, "yaw_rate"] = m[:, 2]
         out.loc[sel, "v_by"] = m[:, 3]
         out.loc[sel, "terrain"] = labels[mid]
+        if track_m is None:
+            tracks[sel] = derived_track_m(run.vehicle)
     ch = {c: i for i, c in enumerate(ws.channels)}
     dv = (ws.X[:, ch["vel_r"]] - ws.X[:, ch["vel_l"]]).mean(axis=-1)
     yaw = out["yaw_rate"].to_numpy(float)
     turning = np.abs(yaw) >= MIN_TURN_RATE_RAD_S * (1.0 - TURN_RATE_ROUNDING)
-    out["chi"] = np.where(turning, dv / (track_m * np.where(turning, yaw, 1.0)), np.nan)
+    out["chi"] = np.where(turning, dv / (tracks * np.where(turning, yaw, 1.0)), np.nan)
     for c in ("slip_1", "slip_2", "yaw_rate", "chi", "v_by"):
         out[c] = out[c].astype(float)
     return out

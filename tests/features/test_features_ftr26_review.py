@@ -191,3 +191,27 @@ def test_slip_outputs_of_a_run_without_left_and_right_sides_say_so():
                              scenario="straight_accel", duration_s=5.0, seed=1))
     assert slip_model_outputs(run) is None
     assert "not a skid-steer vehicle (agrimaro" in missing_slip_inputs(run)
+
+
+def test_chi_targets_use_each_runs_own_track_by_default(tracked_windows):
+    """slip_targets' chi = mean(v_R - v_L) / (B mean(yaw_rate)) took the Husky's track by
+    default whatever vehicle drove the runs, while make_windows derives the same windows'
+    yaw_rate_wheels with each run's own (the tracked vehicle's 0.393 m): a tracked run's
+    default chi was 0.393 / 0.5708 of its own, and (v_R - v_L) / (chi B) not its yaw rate.
+    The default is now each run's own vehicle's track, so the true yaw rate comes back from
+    the windows' yaw_rate_wheels / chi; an explicit track is kept as given."""
+    from features.slip_features import slip_targets
+
+    run, _ = tracked_windows
+    ws = make_windows([run], ("vel_l", "vel_r", "yaw_rate_wheels"),
+                      WindowConfig(window_s=2.0))
+    Y = slip_targets([run], ws)
+    turning = np.isfinite(Y["chi"].to_numpy())
+    assert turning.sum() >= 2
+    yaw_wheels = ws.X[:, 2].mean(axis=1)
+    np.testing.assert_allclose((yaw_wheels / Y["chi"])[turning], Y["yaw_rate"][turning],
+                               rtol=1e-9)
+    np.testing.assert_array_equal(Y["chi"], slip_targets([run], ws, TRACKED.track_m)["chi"])
+    husky = slip_targets([run], ws, HUSKY.track_m)["chi"].to_numpy()
+    np.testing.assert_allclose(husky[turning],
+                               Y["chi"][turning] * TRACKED.track_m / HUSKY.track_m, rtol=1e-12)
