@@ -38,8 +38,8 @@ import pandas as pd
 
 from terrain.errors import (DataFormatError, EstimationError, ShapeError, duplicated,
                             real_arrays)
-from terrain.estimation.skid_steer import (STATE_NAMES, SkidSteerSettings, skid_steer_on_frame,
-                                           skid_steer_on_windows)
+from terrain.estimation.skid_steer import (MEASUREMENT_NAMES, STATE_NAMES, SkidSteerSettings,
+                                           skid_steer_on_frame, skid_steer_on_windows)
 from terrain.run import TIME
 from terrain.slip import skid_steer_side_slip
 from terrain.vehicles import HUSKY
@@ -78,7 +78,7 @@ def ekf_channel_frame(frame: pd.DataFrame, *, wheel_rate_hz: float | None = None
         Missing ``vel_l``, ``vel_r`` or ``wz``.
     """
     res = skid_steer_on_frame(frame, settings, wheel_rate_hz=wheel_rate_hz)
-    gap = ~np.isfinite(frame[["vel_l", "vel_r", "wz"]].to_numpy(float)).all(axis=1)
+    gap = ~np.isfinite(frame[list(MEASUREMENT_NAMES)].to_numpy(float)).all(axis=1)
     cols = _channel_columns(frame[["vel_l", "vel_r"]].to_numpy(float), res.x,
                             np.where(res.accepted, res.y, np.nan), res.nis, res.state_names,
                             settings.track_m)
@@ -131,22 +131,23 @@ def window_ekf_channels(X: np.ndarray, channels: Sequence[str], rate_hz: float, 
         a non-finite sample.
     """
     names = list(channels)
-    missing = [c for c in ("vel_l", "vel_r", "wz") if c not in names]
+    missing = [c for c in MEASUREMENT_NAMES if c not in names]
     if missing:
         raise DataFormatError(f"EKF channels need {missing} among the window channels "
                               f"{names}", None, missing[0])
-    twice = [c for c in duplicated(names) if c in ("vel_l", "vel_r", "wz")]
+    twice = [c for c in duplicated(names) if c in MEASUREMENT_NAMES]
     if twice:      # the first of two was read, the other ignored without a word
         raise DataFormatError(f"EKF channels: {twice} named twice among the window channels "
                               f"{names}", None, twice[0])
     X, = real_arrays("window_ekf_channels", EstimationError, X=X)
     if X.ndim != 3 or X.shape[1] != len(names):
         raise ShapeError(f"X must be (n_windows, {len(names)}, n_samples), got {X.shape}")
-    idx = [names.index(c) for c in ("vel_l", "vel_r", "wz")]
-    x, y, nis = skid_steer_on_windows(X[:, idx, :], rate_hz, settings,
-                                      wheel_rate_hz=wheel_rate_hz)
+    # the filter's measurement rows in its own order (its innovations come in that order)
+    x, y, nis = skid_steer_on_windows(X[:, [names.index(c) for c in MEASUREMENT_NAMES], :],
+                                      rate_hz, settings, wheel_rate_hz=wheel_rate_hz)
     n_win, n = X.shape[0], X.shape[2]
-    vel = np.moveaxis(X[:, idx[:2], :], 1, 2).reshape(-1, 2)
+    sides = [names.index("vel_l"), names.index("vel_r")]
+    vel = np.moveaxis(X[:, sides, :], 1, 2).reshape(-1, 2)
     cols = _channel_columns(vel, x.reshape(-1, x.shape[2]), y.reshape(-1, y.shape[2]),
                             nis.reshape(-1), STATE_NAMES, settings.track_m)
     return np.stack([cols[c].reshape(n_win, n) for c in EKF_CHANNELS], axis=1)
@@ -156,15 +157,17 @@ def _channel_columns(vel: np.ndarray, x: np.ndarray, y: np.ndarray, nis: np.ndar
                      state_names: Sequence[str], track_m: float) -> dict[str, np.ndarray]:
     """:data:`EKF_CHANNELS` from the filter's per-step arrays (one equation for both paths).
 
-    ``vel`` ``(N, 2)`` wheel speeds m/s, ``x`` ``(N, 4)`` states, ``y`` ``(N, 3)`` innovations
-    (NaN where a row was not used), ``nis`` ``(N,)``; returns name -> ``(N,)`` array.
+    ``vel`` ``(N, 2)`` wheel speeds m/s (left, right), ``x`` ``(N, 4)`` states, ``y``
+    ``(N, 3)`` innovations in the filter's measurement order
+    (:data:`~terrain.estimation.skid_steer.MEASUREMENT_NAMES`; NaN where a row was not used),
+    ``nis`` ``(N,)``; returns name -> ``(N,)`` array.
     """
     state = {name: x[:, i] for i, name in enumerate(state_names)}
     slip = skid_steer_side_slip(vel, state["v_bx"], state["yaw_rate"], track_m)
     return {"ekf_v_bx": state["v_bx"], "ekf_yaw_rate": state["yaw_rate"],
             "ekf_gyro_bias": state["gyro_bias"],
             "ekf_icr_chi": np.exp(state["log_icr_chi"]),      # the state is ln(chi)
-            "ekf_innov_vel_l": y[:, 0], "ekf_innov_vel_r": y[:, 1], "ekf_innov_wz": y[:, 2],
+            **{f"ekf_innov_{name}": y[:, i] for i, name in enumerate(MEASUREMENT_NAMES)},
             "ekf_nis": nis, "ekf_slip_l": slip[:, 0], "ekf_slip_r": slip[:, 1]}
 
 

@@ -184,3 +184,18 @@ def test_an_imu_gap_alone_makes_every_ekf_channel_nan(husky_run):
     ekf = ekf_channel_frame(frame, wheel_rate_hz=husky_run.rate_hz("wheels"))
     assert ekf.loc[500:520].isna().all().all() and ekf.loc[700:720].isna().all().all()
     assert np.isfinite(ekf.loc[530:690].to_numpy()).all()
+
+
+def test_each_innovation_channel_is_the_filters_innovation_of_that_name(husky_run):
+    # the ekf_innov_* channels are named by the filter's own measurement names, not by
+    # position: each equals the innovation column the filter labels with that name
+    from terrain.estimation.skid_steer import skid_steer_on_frame
+
+    frame = align_streams(husky_run, ("imu", "wheels"), 50.0)
+    wheel_hz = husky_run.rate_hz("wheels")
+    res = skid_steer_on_frame(frame, SkidSteerSettings(), wheel_rate_hz=wheel_hz)
+    out = ekf_channel_frame(frame, wheel_rate_hz=wheel_hz)
+    assert {f"ekf_innov_{name}" for name in res.measurement_names} <= set(EKF_CHANNELS)
+    for i, name in enumerate(res.measurement_names):
+        expected = np.where(res.accepted[:, i], res.y[:, i], np.nan)
+        np.testing.assert_array_equal(out[f"ekf_innov_{name}"].to_numpy(), expected)
