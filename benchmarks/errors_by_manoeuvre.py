@@ -1,10 +1,11 @@
 """Where does a cross-validated terrain classifier fail: straight driving or turning?
 
 Reads the out-of-fold predictions of a ``terrain cv`` run (its MLflow artifact
-``predictions.csv``: ``run``, ``t_start_s``, ``t_end_s``, ``true``, ``predicted``), computes
-each window's mean absolute yaw rate from the run's IMU (``wz``, rad/s) over the window, and
-prints the accuracy per true class for straight windows (mean ``|wz|`` at most
-``--turning-rad-s``) and turning ones, then the confusion of the straight windows. A terrain
+``predictions.csv``: ``run``, ``t_start_s``, ``t_end_s``, ``true``, ``predicted``, one row
+per window and ``seed``), computes each window's mean absolute yaw rate from the run's IMU
+(``wz``, rad/s) over the window, and prints the accuracy per true class (pooled over the
+seeds) for straight windows (mean ``|wz|`` at most ``--turning-rad-s``) and turning ones
+(how many: each window counted once), then the confusion of the straight windows. A terrain
 that differs from another only in its friction or its soil strength shows it when the robot
 demands traction or turns; driving straight at constant speed it may not.
 
@@ -86,12 +87,21 @@ def main() -> int:
     known = pred["abs_wz_rad_s"].notna()
     pred["manoeuvre"] = np.where(pred["abs_wz_rad_s"] > args.turning_rad_s, "turning",
                                  "straight")
-    table = (pred[known].groupby(["true", "manoeuvre"])["correct"].agg(["mean", "size"])
+    # terrain cv scores every window once per seed (a row each): accuracies pool the rows,
+    # counts and shares count each window once
+    window = pred.groupby(["run", "t_start_s", "t_end_s"], sort=False).ngroup()
+    n_seeds = pred["seed"].nunique() if "seed" in pred else 1
+    table = (pred[known].assign(window=window)
+             .groupby(["true", "manoeuvre"])
+             .agg(mean=("correct", "mean"), size=("window", "nunique"))
              .unstack("manoeuvre"))
-    print(f"run {args.run_id}: {len(pred)} out-of-fold windows ({int((~known).sum())} "
-          f"without IMU), turning = mean |wz| > {args.turning_rad_s:g} rad/s")
+    print(f"run {args.run_id}: {window.nunique()} out-of-fold windows "
+          f"({window[~known].nunique()} without IMU)"
+          + (f", each scored by {n_seeds} seeds" if n_seeds > 1 else "")
+          + f", turning = mean |wz| > {args.turning_rad_s:g} rad/s")
     print(table.round(3).to_string())
-    share = (pred.loc[known, "manoeuvre"] == "straight").mean()
+    once = ~window.duplicated()
+    share = (pred.loc[known & once, "manoeuvre"] == "straight").mean()
     # NaN for a manoeuvre with no window (e.g. a threshold above every window's |wz|)
     overall = pred[known].groupby("manoeuvre")["correct"].mean().reindex(
         ["straight", "turning"])

@@ -1,0 +1,68 @@
+"""Review trk24: what a benchmark reads from another module's output (a ``terrain cv`` run's
+predictions) is read in that module's format."""
+
+from __future__ import annotations
+
+import re
+import runpy
+import sys
+from pathlib import Path
+from types import SimpleNamespace
+
+import numpy as np
+import pandas as pd
+from sklearn.dummy import DummyClassifier
+
+from terrain.models.cv import cross_validate
+from terrain.run import Run
+
+BENCHMARKS = Path(__file__).resolve().parent.parent / "benchmarks"
+
+
+def _cv_predictions(seeds):
+    """Out-of-fold predictions of 4 runs x 5 windows of 2 s, as cross_validate writes them
+    (one row per window and seed), and the runs (a left spin in the first 10 s of each)."""
+    runs, rows = [], []
+    t = np.arange(0.0, 20.0, 0.01)
+    imu = pd.DataFrame({"t_s": t, "wz": np.where(t < 10.0, 0.3, 0.0)})
+    for k, label in enumerate(["A", "A", "B", "B"]):
+        run_id = f"x/{label}/{k}"
+        runs.append(Run(run_id, "x", label, {"imu": imu}))
+        rows += [(run_id, label, 4.0 * i, 4.0 * i + 2.0) for i in range(5)]
+    run_ids = np.array([r[0] for r in rows])
+    y = np.array([r[1] for r in rows])
+    X = np.arange(len(rows), dtype=float)[:, None]
+    report = cross_validate(lambda seed: DummyClassifier(strategy="most_frequent"), X, y,
+                            run_ids, run_ids, np.array([r[2] for r in rows]),
+                            np.array([r[3] for r in rows]), seeds=seeds, n_splits=2)
+    return report.predictions, runs, len(rows)
+
+
+def _errors_by_manoeuvre(tmp_path, monkeypatch, capsys, predictions, runs):
+    script = runpy.run_path(str(BENCHMARKS / "errors_by_manoeuvre.py"))
+    csv = tmp_path / "predictions.csv"
+    predictions.to_csv(csv, index=False)        # what terrain cv logs (TrackedRun.log_table)
+    env = script["main"].__globals__
+    monkeypatch.setitem(env, "activate_store", lambda: None)
+    monkeypatch.setitem(env, "mlflow", SimpleNamespace(artifacts=SimpleNamespace(
+        download_artifacts=lambda **k: str(csv))))
+    monkeypatch.setitem(env, "load_dataset", lambda name: runs)
+    monkeypatch.setattr(sys, "argv", ["errors_by_manoeuvre.py", "RUN"])
+    assert script["main"]() == 0
+    return capsys.readouterr().out
+
+
+def test_errors_by_manoeuvre_counts_each_window_of_a_multi_seed_cv_run_once(
+        tmp_path, monkeypatch, capsys):
+    # terrain cv's predictions.csv holds every window once per seed (3 by default): the
+    # script said "60 out-of-fold windows" for 20, and its table's sizes were 3x too
+    one, runs, n = _cv_predictions((0,))
+    three, _, _ = _cv_predictions((0, 1, 2))
+    assert len(three) == 3 * n                   # the producer's format
+    out_one = _errors_by_manoeuvre(tmp_path, monkeypatch, capsys, one, runs)
+    out_three = _errors_by_manoeuvre(tmp_path, monkeypatch, capsys, three, runs)
+    assert re.search(rf"\b{n} out-of-fold windows\b", out_one)
+    assert re.search(rf"\b{n} out-of-fold windows\b", out_three)
+    # the same windows, the same table (accuracy pooled over seeds, sizes in windows)
+    body = (lambda out: out.split("\n", 1)[1])
+    assert body(out_one) == body(out_three)
