@@ -47,6 +47,7 @@ from terrain.sim.simulate import simulate_with_physics
 from terrain.terramechanics.lateral import SOILS
 from terrain.vehicles import HUSKY
 from terrain.vehicles.icr import icr_expansion_factor
+from terrain.vehicles.skid_steer import skid_steer_forward
 
 SCOPES = {"moving": None, "curve": "curve", "spin": "spin"}
 
@@ -101,8 +102,8 @@ def sim_chi(terrain, scenario, duration):
                                           scenario=scenario, duration_s=duration, seed=1,
                                           physics="v2"))
     ph = sim.physics
-    v = ph.omega * HUSKY.wheel_radius_m
-    x = (v[:, 1] - v[:, 0]) / HUSKY.track_m
+    v = ph.omega * HUSKY.wheel_radius_m        # motor 0 the left side, 1 the right
+    _, x = skid_steer_forward(v[:, 0], v[:, 1], HUSKY.track_m)    # seed 000 eq. 2
     m = np.abs(x) > 0.1
     return icr_expansion_factor(ph.twist[m, 2], x[m])
 

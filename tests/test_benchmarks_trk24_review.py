@@ -66,3 +66,35 @@ def test_errors_by_manoeuvre_counts_each_window_of_a_multi_seed_cv_run_once(
     # the same windows, the same table (accuracy pooled over seeds, sizes in windows)
     body = (lambda out: out.split("\n", 1)[1])
     assert body(out_one) == body(out_three)
+
+
+def test_sweep_soil_params_chi_takes_its_commanded_yaw_rate_from_the_kinematics(monkeypatch):
+    # sim_chi wrote the ideal differential-drive yaw rate (v_R - v_L) / B out itself beside
+    # terrain.vehicles.skid_steer.skid_steer_forward (seed 000 eq. 2), which the audit's
+    # measured chi uses: one formula, one place, left = motor 0 as the simulator's motors
+    from terrain.vehicles import HUSKY
+    from terrain.vehicles.icr import icr_expansion_factor
+    from terrain.vehicles.skid_steer import skid_steer_forward
+
+    script = runpy.run_path(str(BENCHMARKS / "sweep_soil_params.py"))
+    env = script["sim_chi"].__globals__
+    rng = np.random.default_rng(0)
+    omega = rng.uniform(-5.0, 5.0, (200, 2))
+    twist = np.zeros((200, 3))
+    twist[:, 2] = rng.uniform(-1.0, 1.0, 200)
+    physics = SimpleNamespace(omega=omega, twist=twist)
+    monkeypatch.setitem(env, "simulate_with_physics",
+                        lambda config: SimpleNamespace(physics=physics))
+    calls = []
+
+    def forward(*args, **kwargs):
+        calls.append(args)
+        return skid_steer_forward(*args, **kwargs)
+
+    monkeypatch.setitem(env, "skid_steer_forward", forward)
+    chi = script["sim_chi"]("SNOW", "spin", 32.0)
+    assert calls, "sim_chi does not call skid_steer_forward"
+    _, x = skid_steer_forward(omega[:, 0] * HUSKY.wheel_radius_m,
+                              omega[:, 1] * HUSKY.wheel_radius_m, HUSKY.track_m)
+    m = np.abs(x) > 0.1
+    assert chi == icr_expansion_factor(twist[m, 2], x[m])
