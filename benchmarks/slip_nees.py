@@ -9,7 +9,11 @@ motor and terrain constants); the NEES of ``slip_1, slip_2`` after 3 s is tested
 ``--settings`` is a JSON list of ``SkidSteerSlipSettings`` overrides of
 :data:`terrain.slip.estimate.BATCH_FUSION` (``{}`` = the shipped setting; ``rho`` sets the
 error correlation). Figures are printed and logged to MLflow (experiment
-``terrain-benchmark``, run ``slip-nees``). ``docs/slip_learning.md`` section 5.
+``terrain-benchmark``, run ``slip-nees``; per setting ``K`` and terrain ``T`` the metrics
+``sK.T.mean_nees`` (mean of the run means), ``mean_nees_sem``, ``n_runs``,
+``triplets_inside``, ``n_triplets`` and the pooled test's ``pooled_mean``, ``pooled_lo``,
+``pooled_hi``, ... (:meth:`~terrain.estimation.consistency.ChiSquareTest.as_dict`)).
+``docs/slip_learning.md`` section 5.
 
 Usage: ``python benchmarks/slip_nees.py --seeds 200-211 [--settings '[{}]']`` (after
 ``terrain slip-fit``).
@@ -132,14 +136,16 @@ def main() -> int:
                          for j in range(0, len(v) - 2, 3)]
                 inside = sum(tt.inside for tt in trips)
                 pooled = chi2_test(np.concatenate(v), 2)
-                print(f"  {t:11s} mean NEES {np.mean(means):.2f} +- "
-                      f"{np.std(means) / np.sqrt(len(means)):.2f} over {len(means)} runs; "
-                      f"triplets inside {inside}/{len(trips)}; all runs pooled "
-                      f"{pooled.mean:.2f} [{pooled.bounds[0]:.2f}, {pooled.bounds[1]:.2f}]",
-                      flush=True)
-                run.log_metrics({f"s{k}.{t}.mean_nees": float(np.mean(means)),
-                                 f"s{k}.{t}.triplets_inside": float(inside),
-                                 f"s{k}.{t}.n_triplets": float(len(trips))})
+                # every printed figure is logged (the same values)
+                m = {"mean_nees": float(np.mean(means)),
+                     "mean_nees_sem": float(np.std(means) / np.sqrt(len(means))),
+                     "n_runs": float(len(means)), "triplets_inside": float(inside),
+                     "n_triplets": float(len(trips)), **pooled.as_dict("pooled")}
+                print(f"  {t:11s} mean NEES {m['mean_nees']:.2f} +- {m['mean_nees_sem']:.2f} "
+                      f"over {len(means)} runs; triplets inside {inside}/{len(trips)}; all "
+                      f"runs pooled {m['pooled_mean']:.2f} [{m['pooled_lo']:.2f}, "
+                      f"{m['pooled_hi']:.2f}]", flush=True)
+                run.log_metrics({f"s{k}.{t}.{name}": value for name, value in m.items()})
     return 0
 
 

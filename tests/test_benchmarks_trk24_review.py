@@ -98,3 +98,57 @@ def test_sweep_soil_params_chi_takes_its_commanded_yaw_rate_from_the_kinematics(
                               omega[:, 1] * HUSKY.wheel_radius_m, HUSKY.track_m)
     m = np.abs(x) > 0.1
     assert chi == icr_expansion_factor(twist[m, 2], x[m])
+
+
+def test_slip_nees_logs_every_figure_it_prints(monkeypatch, capsys):
+    # docs/slip_learning.md: "NEES by seed block, with triplet and pooled tests (...; logged
+    # to MLflow run slip-nees)"; the pooled test (mean and bounds) and the spread of the run
+    # means were printed but not logged
+    script = runpy.run_path(str(BENCHMARKS / "slip_nees.py"))
+    env = script["main"].__globals__
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 10.0, 0.1)
+
+    def run(terrain):
+        truth = pd.DataFrame({"t_s": t, "slip_1": 0.05, "slip_2": 0.06})
+        return SimpleNamespace(terrain=terrain, streams={"truth": truth})
+
+    runs = [run(terrain) for terrain in ("SNOW", "ICE") for _ in range(6)]
+
+    def estimate(r, source, outputs, settings):
+        x = np.column_stack([0.05 + 0.01 * rng.standard_normal(t.size),
+                             0.06 + 0.01 * rng.standard_normal(t.size)])
+        P = np.broadcast_to(np.eye(2) * 1e-4 * rng.uniform(0.5, 2.0), (t.size, 2, 2))
+        return SimpleNamespace(ekf=SimpleNamespace(state_names=["slip_1", "slip_2"], t_s=t,
+                                                   x=x, P=P))
+
+    logged = {}
+
+    class Run:
+        def log_metrics(self, metrics):
+            logged.update(metrics)
+
+    from contextlib import contextmanager
+
+    @contextmanager
+    def tracked(*args, **kwargs):
+        yield Run()
+
+    monkeypatch.setitem(env, "require_store", lambda: "sqlite:///x.db")
+    monkeypatch.setitem(env, "resolve_slip_model", lambda name: (None, None))
+    monkeypatch.setitem(env, "simulated_runs", lambda spec, cache: runs)
+    monkeypatch.setitem(env, "slip_model_outputs", lambda r, model, sim: None)
+    monkeypatch.setitem(env, "estimate_skid_steer_slip_run", estimate)
+    monkeypatch.setitem(env, "tracked_run", tracked)
+    monkeypatch.setattr(sys, "argv", ["slip_nees.py", "--seeds", "0-5"])
+    assert script["main"]() == 0
+    out = capsys.readouterr().out
+    lines = [line for line in out.splitlines() if "mean NEES" in line]
+    assert len(lines) == 2
+    for line in lines:
+        terrain = line.split()[0]
+        printed = [float(v) for v in re.findall(r"-?\d+\.\d+", line)]
+        # mean +- spread, pooled mean [lower, upper]: every printed figure is a metric
+        mine = {round(v, 2) for k, v in logged.items() if k.startswith(f"s0.{terrain}.")}
+        missing = [v for v in printed if round(v, 2) not in mine]
+        assert not missing, (line, sorted(k for k in logged if terrain in k))
