@@ -37,7 +37,6 @@ import numpy as np
 import pandas as pd
 from sklearn.ensemble import ExtraTreesClassifier, RandomForestClassifier
 from sklearn.feature_selection import SelectKBest, f_classif
-from sklearn.metrics import accuracy_score, f1_score
 from sklearn.model_selection import GridSearchCV, StratifiedGroupKFold
 from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
@@ -48,6 +47,7 @@ from features.transformers import linear_bands
 from pipelines.arguments import DistinctSeeds, output_file, seed_value
 from terrain.models.cv import grouped_units, iter_splits
 from terrain.models.experiment import ExperimentConfig, feature_extractor, load_windows
+from terrain.models.metrics import window_metrics
 from terrain.models.svm import make_svm
 from terrain.tracking import require_store, tracked_run
 
@@ -55,6 +55,14 @@ from terrain.tracking import require_store, tracked_run
 CURRENT_BAND_WIDTH_HZ = 2.5
 #: Nyquist frequency of Vulpi's wheel stream (15 Hz, data/README.md), Hz
 VULPI_WHEEL_NYQUIST_HZ = 7.5
+
+
+def _scores(truth, predicted) -> dict[str, float]:
+    """Accuracy and macro-F1 of one seed's pooled out-of-fold windows, as the project scores
+    them (:func:`terrain.models.metrics.window_metrics`: macro-F1 over the classes true or
+    predicted, scikit-learn's macro average)."""
+    m = window_metrics(truth, predicted, sorted(set(truth)))
+    return {"accuracy": m["accuracy"], "macro_f1": m["macro_f1"]}
 
 
 def probe_windows(dataset: str, rate_hz: float | None) -> dict:
@@ -182,9 +190,7 @@ def score_variants(seeds: list[int]) -> pd.DataFrame:
                     _scaler_from_all_predict(cfg, c["F"][trv], c["labels"][trv],
                                              c["F"][tev], c["F"][fit_rows]))
         for name, p in preds.items():
-            rows.append({"variant": name, "seed": seed,
-                         "accuracy": accuracy_score(truth, p),
-                         "macro_f1": f1_score(truth, p, average="macro"),
+            rows.append({"variant": name, "seed": seed, **_scores(truth, p),
                          "n_windows": len(truth)})
         print(f"seed {seed}: " + ", ".join(f"{r['variant']} {r['accuracy']:.3f}"
                                            for r in rows[-len(preds):]), flush=True)
@@ -223,8 +229,7 @@ def borealtc_scaler_check(seeds: list[int]) -> pd.DataFrame:
                                                     F[np.r_[trb, vidx]]))
         for name, p in (("borealtc: svm@100", plain),
                         ("borealtc: svm@100_scaler_from_all", pooled)):
-            rows.append({"variant": name, "seed": seed, "accuracy": accuracy_score(truth, p),
-                         "macro_f1": f1_score(truth, p, average="macro"),
+            rows.append({"variant": name, "seed": seed, **_scores(truth, p),
                          "n_windows": len(truth)})
         print(f"seed {seed}: " + ", ".join(f"{r['variant']} {r['accuracy']:.3f}"
                                            for r in rows[-2:]), flush=True)

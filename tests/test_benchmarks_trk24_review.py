@@ -153,3 +153,36 @@ def test_slip_nees_logs_every_figure_it_prints(monkeypatch, capsys):
         mine = {round(v, 2) for k, v in logged.items() if k.startswith(f"s0.{terrain}.")}
         missing = [v for v in printed if round(v, 2) not in mine]
         assert not missing, (line, sorted(k for k in logged if terrain in k))
+
+
+def test_vulpi_probes_scores_with_the_projects_window_metrics(monkeypatch):
+    # vulpi_probes.py scored its variants with scikit-learn's accuracy_score and f1_score
+    # beside terrain.models.metrics.window_metrics, the project's definitions that terrain
+    # cv and every other benchmark report: one definition, one place
+    from terrain.models import metrics as project_metrics
+
+    script = runpy.run_path(str(BENCHMARKS / "vulpi_probes.py"))
+    env = script["borealtc_scaler_check"].__globals__
+    rng = np.random.default_rng(0)
+    labels = np.repeat(np.array(["A", "B", "C"]), 20)
+    groups = np.repeat(np.arange(12), 5)
+    vulpi = np.zeros(labels.size, dtype=bool)
+    vulpi[-5:] = True
+    c = {"vulpi": vulpi, "labels": labels, "F": rng.standard_normal((labels.size, 3)),
+         "groups": groups, "config": SimpleNamespace(svm=None)}
+    monkeypatch.setitem(env, "probe_windows", lambda dataset, rate: c)
+    monkeypatch.setitem(env, "make_svm", lambda svm, seed: DummyClassifier(
+        strategy="stratified", random_state=seed))
+    monkeypatch.setitem(env, "_scaler_from_all_predict",
+                        lambda cfg, F, y, F_test, F_all: rng.choice(["A", "B", "D"],
+                                                                    len(F_test)))
+    calls = []
+
+    def spy(y_true, y_pred, classes):
+        calls.append(1)
+        return project_metrics.window_metrics(y_true, y_pred, classes)
+
+    monkeypatch.setitem(env, "window_metrics", spy)
+    rows = script["borealtc_scaler_check"]([0, 1])
+    assert calls, "vulpi_probes does not score with window_metrics"
+    assert len(calls) == len(rows) == 4
