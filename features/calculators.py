@@ -422,7 +422,10 @@ def band_log_power(x: np.ndarray, rate_hz: float,
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz).
+        ``(n_windows, n_channels, n_bands)``, log10(unit^2/Hz) of the band's density plus
+        ``1e-12`` unit^2/Hz (the floor that keeps a band without power, a constant window's,
+        finite at -12: a density near 1e-12 reads above its own log and does not scale with
+        the signal).
 
     Raises
     ------
