@@ -10,7 +10,7 @@ from __future__ import annotations
 import numba
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from features import calculators
@@ -56,6 +56,10 @@ def test_constant_window_has_zero_spread_and_moments(value, n):
 @ROUNDED_MEAN
 @settings(max_examples=60, deadline=None)
 @given(st.floats(-1e9, 1e9, allow_subnormal=False), st.integers(1, 3000))
+@example(
+    value=477218588.5383792,
+    n=9,
+).via('discovered failure')
 def test_constant_window_any_value(value, n):
     out = calculators.statistics(np.full((2, n), value), MOMENTS)
     assert (out[:, 0] == value).all()
@@ -68,6 +72,12 @@ def test_constant_window_any_value(value, n):
 @settings(max_examples=60, deadline=None)
 @given(st.floats(-1e8, 1e8), st.floats(1e-3, 10.0), st.integers(10, 5000),
        st.integers(0, 2 ** 32 - 1))
+@example(
+    offset=0.0,
+    scale=1.5,
+    n=1158,
+    seed=0,
+).via('discovered failure')
 def test_moments_of_offset_signal_match_float128(offset, scale, n, seed):
     # skewness and kurtosis of a signal whose mean dwarfs its spread (a biased sensor, a
     # gravity axis): the error of the window mean fed every central moment; the right
