@@ -20,8 +20,7 @@ The IMU's body frame is x forward, y left, z up: on level ground ``az`` is +9.81
 ``wz`` is positive turning left (counter-clockwise seen from above), when the right side's
 wheels run faster than the left's (``vel_r > vel_l``); the simulator writes runs so, the
 filters' measurement models (:mod:`terrain.estimation`) read them so, and the readers refuse
-an IMU whose z axis points down or wheel sides that turn against the gyro
-(:mod:`terrain.io.plausibility`, rules ``imu_axes`` and ``wheel_sides``).
+an IMU whose z axis points down (:mod:`terrain.io.plausibility`, rule ``imu_axes``).
 
 Streams keep their own time base. Putting them on one clock is the explicit step
 :func:`terrain.io.align.align_streams`; placing sample times on a uniform step grid (a

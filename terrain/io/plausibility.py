@@ -57,16 +57,6 @@ Unit and clock rules (:func:`check_run`)
         three gyro axes exceeds :data:`MAX_GYRO_SPREAD_RAD_S` (the shipped runs: at most
         0.18 rad/s; their straight runs converted to deg/s: 0.33 to 10), or the yaw rate
         exceeds twice the vehicle's limit.
-    ``wheel_sides``
-        The same yaw rate against the same wheel speed difference, for its sign: turning
-        left (``wz > 0``, :mod:`terrain.run`) the right side runs faster, whether the
-        vehicle drives forward or backward, so ``k = 1 / (chi B)`` is positive (the model of
-        the slip filter, :mod:`terrain.estimation.skid_steer_slip`; the shipped runs'
-        correlations: at least -0.08, all below 0.5 in magnitude where negative). Certain
-        (refuse) on the evidence of ``gyro_units`` (wheels that turn, ``|corr| >= 0.5``)
-        when the correlation is negative: the wheel file's sides are swapped (``velL`` holds
-        the right side) or its speeds' signs flipped; the ``imu_axes`` rule has found an
-        IMU whose z axis points down before.
     ``wheel_speed_units``
         Husky wheel speeds against the top speed: a wheel cannot turn faster than the motor
         limit (top speed), so a 99th percentile above twice the top speed is certain (km/h is
@@ -546,8 +536,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
         Streams whose time spans do not overlap.
     UnitError
         An IMU whose z axis points down (rule ``imu_axes``), a gyro certainly in deg/s,
-        wheel speeds whose sides turn against the gyro (rule ``wheel_sides``), wheel speeds
-        certainly in km/h.
+        wheel speeds certainly in km/h.
     """
     found: list[str] = []
     unused: dict[str, float] = {}
@@ -558,8 +547,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
     if imu is not None and wheels is not None and len(imu) and len(wheels):
         clocks = _check_clocks(imu, wheels, src, found, time_column)
         unused = {k: v for k, v in clocks.items() if v > 0}
-        _check_gyro(imu, wheels, vehicle, src("imu"), found, src("wheels"),
-                    [_file_column("wheels", c, columns) for c in ("vel_l", "vel_r")])
+        _check_gyro(imu, wheels, vehicle, src("imu"), found)
     if wheels is not None and len(wheels) and vehicle in VEHICLE_LIMITS:
         _check_wheel_speed(wheels, imu, VEHICLE_LIMITS[vehicle], src("wheels"), found,
                            [_file_column("wheels", c, columns) for c in ("vel_l", "vel_r")])
@@ -662,10 +650,7 @@ def _check_clocks(imu, wheels, src, found, time_column: str = "time") -> dict[st
     return unused
 
 
-def _check_gyro(imu, wheels, vehicle, path, found, wheel_path=None,
-                speed_columns: Sequence[str] = ("vel_l", "vel_r")) -> None:
-    """Rules ``gyro_units`` and ``wheel_sides`` (``path``: the IMU's source,
-    ``wheel_path``: the wheels', ``speed_columns``: their file's speed columns)."""
+def _check_gyro(imu, wheels, vehicle, path, found) -> None:
     # finite samples only: a non-finite one is the non-finite rule's (an inf made the spread
     # and the percentile inf, "probably in deg/s"; a NaN the correlation NaN)
     gyro = [imu[c].to_numpy(float) for c in ("wx", "wy", "wz")]
@@ -693,16 +678,6 @@ def _check_gyro(imu, wheels, vehicle, path, found, wheel_path=None,
                     f"is {k:.1f} 1/m (corr {corr:.2f}); a rad/s gyro gives 1 / (chi B), at "
                     f"most {MAX_YAW_SLOPE_PER_M:g} 1/m, and deg/s multiplies it by 57.3: the "
                     "gyro is in deg/s; convert wx, wy, wz to rad/s (x pi/180)", path, "wz")
-            if corr <= -0.5:
-                # wz = (v_R - v_L) / (chi B) with chi B > 0, driving forward or backward
-                raise UnitError(
-                    f"rule wheel_sides: the yaw rate turns against the wheel speed difference "
-                    f"{speed_columns[1]} - {speed_columns[0]} (corr {corr:.2f}, slope "
-                    f"{k:.2f} 1/m); turning left (wz > 0) the right side runs faster, so "
-                    f"the wheel sides are swapped or the speeds' signs flipped: "
-                    f"{speed_columns[0]} is the left side's speed, {speed_columns[1]} the "
-                    f"right side's (and the currents alike)",
-                    path if wheel_path is None else wheel_path, speed_columns[0])
     lim = VEHICLE_LIMITS.get(vehicle)
     p99 = float(np.percentile(np.abs(gyro[2][ok]), 99)) if ok.any() else 0.0
     if spread > MAX_GYRO_SPREAD_RAD_S or (lim is not None and p99 > 2 * lim.max_yaw_rate_rad_s):

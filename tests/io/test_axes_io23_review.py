@@ -92,6 +92,15 @@ def test_an_imu_in_the_filters_own_axes_passes_and_in_a_z_down_frame_is_refused(
     check_accel_units(_frd(streams["imu"]), "imu", found=[])
 
 
+_SIDES_NOT_REFUSED = pytest.mark.xfail(
+    strict=True, reason="swapped wheel sides are read without a word: io23's rule wheel_sides "
+    "(refuse at corr <= -0.5 of the yaw rate on the wheel speed difference, >= 10 wheel "
+    "samples) refused valid random runs of test_io_properties_io14 (corr -0.53 on 12 samples "
+    "of uncorrelated noise), so a short served request could be refused by chance; it was "
+    "taken back until the evidence it needs is sized (samples, turn, correlation)")
+
+
+@_SIDES_NOT_REFUSED
 @settings(max_examples=30, deadline=None)
 @given(turns, st.floats(0.2, 0.9), st.integers(0, 2**16))
 def test_wheel_sides_of_the_filters_own_convention_pass_and_swapped_are_refused(
@@ -144,30 +153,13 @@ def test_a_run_with_an_imu_in_a_z_down_frame_is_refused_by_the_readers(tmp_path,
     assert info.value.column == "az" and str(info.value.path).endswith("imu_00.csv")
 
 
+@_SIDES_NOT_REFUSED
 def test_a_run_with_its_wheel_sides_swapped_is_refused_by_the_readers(tmp_path, sim_run):
     streams = dict(sim_run.streams, wheels=_swapped(sim_run.streams["wheels"]))
     run = Run(sim_run.run_id, "sim", sim_run.terrain, streams, vehicle="husky")
     with pytest.raises(UnitError, match="rule wheel_sides") as info:
         _read_back(tmp_path, run)
     assert info.value.column == "velL" and str(info.value.path).endswith("pro_00.csv")
-
-
-@pytest.mark.parametrize("noise, refused", [(0.25, True), (0.5, False)])
-def test_wheel_sides_are_judged_on_the_gyro_units_evidence_a_correlation_of_half(noise, refused):
-    # swapped sides under a noisy gyro: refused once the (negative) correlation reaches the
-    # gyro_units rule's 0.5, not below it (no certainty then)
-    streams = _consumer_streams(np.repeat([0.3, -0.3, 0.0, 0.3], 150), 0.5)
-    rng = np.random.default_rng(5)
-    imu = streams["imu"].assign(wz=streams["imu"]["wz"] + noise * rng.standard_normal(600))
-    wheels = _swapped(streams["wheels"])
-    dv = wheels["vel_r"] - wheels["vel_l"]
-    corr = np.corrcoef(dv, np.interp(wheels[TIME], imu[TIME], imu["wz"]))[0, 1]
-    assert (-0.8 < corr < -0.5) if refused else (-0.5 < corr < -0.2)
-    if refused:
-        with pytest.raises(UnitError, match="rule wheel_sides"):
-            _quiet_check_run({"imu": imu, "wheels": wheels})
-    else:
-        _quiet_check_run({"imu": imu, "wheels": wheels})
 
 
 def test_the_husky_bounds_of_the_unit_rules_are_the_vehicle_models():
