@@ -38,7 +38,8 @@ machine (skorch maps its ``module_`` to the available device; README, "Model com
 from __future__ import annotations
 
 import threading
-from typing import Sequence
+from contextlib import contextmanager
+from typing import Callable, Sequence
 
 import numpy as np
 from sklearn.base import BaseEstimator, ClassifierMixin
@@ -152,6 +153,34 @@ def _torch_modules():
 #: threading backend) drew from one another's seeded stream and moved a seed's
 #: probabilities by up to 0.2; under this lock they run one at a time, as sequential fits.
 _TORCH_RNG_LOCK = threading.RLock()
+
+#: Held while a fit or prediction runs on a torch thread count of its own, and while one
+#: reads the count it puts back. torch keeps the count per thread, but a thread takes the
+#: count last set by any thread on its first torch call: a prediction started in a new thread
+#: while another ran on 1 thread took 1 for the process's count, put it back last, and every
+#: thread started later (a served request, a joblib worker) ran on 1 thread.
+_TORCH_THREADS_LOCK = threading.RLock()
+
+
+@contextmanager
+def _torch_threads(torch, count: Callable[[int], int]):
+    """Run the block on ``count(current)`` torch threads, the current count put back after.
+
+    The count is read under :data:`_TORCH_THREADS_LOCK`, which is held through the block
+    when the count changes (so no other thread starts on the temporary one) and released at
+    once otherwise.
+    """
+    with _TORCH_THREADS_LOCK:
+        threads = torch.get_num_threads()
+        wanted = count(threads)
+        if wanted != threads:
+            torch.set_num_threads(wanted)
+            try:
+                yield
+            finally:
+                torch.set_num_threads(threads)
+            return
+    yield
 
 
 class _WindowCNN(ClassifierMixin, BaseEstimator):
@@ -353,15 +382,12 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         # validation runs held out for early stopping take no part in them
         counts = np.bincount(y_idx[fit_idx], minlength=len(self.classes_)).astype(np.float32)
         weight = counts.sum() / (len(counts) * np.maximum(counts, 1))
-        threads = torch.get_num_threads()
         # torch.manual_seed reseeds every CUDA device too: fork their RNGs as well, so a
         # fit leaves the caller's random streams as it found them on a GPU machine too
         cuda = list(range(torch.cuda.device_count())) if torch.cuda.is_available() else []
-        with _TORCH_RNG_LOCK, torch.random.fork_rng(devices=cuda):
-            torch.manual_seed(seed)
-            if self.n_threads:
-                torch.set_num_threads(self.n_threads)
-            try:
+        with _TORCH_RNG_LOCK, _torch_threads(torch, lambda threads: self.n_threads or threads):
+            with torch.random.fork_rng(devices=cuda):
+                torch.manual_seed(seed)
                 gen = torch.Generator().manual_seed(seed)
                 Z_fit, y_fit = self._augmented(Z[fit_idx], y_idx[fit_idx])
                 if sample_weight is None:
@@ -394,8 +420,6 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
                             "train_split"):
                     if key in vars(self.net_):
                         setattr(self.net_, key, None)
-            finally:
-                torch.set_num_threads(threads)
         self.n_epochs_ = len(self.net_.history)
         return self
 
@@ -475,17 +499,13 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             module.eval()
         device = next(module.parameters()).device
         out = [np.zeros((0, len(self.classes_)), dtype=np.float32)]
-        threads = torch.get_num_threads()
         # direct forward (no DataLoader overhead); one thread for small batches, where
         # thread synchronisation costs more than it saves
-        torch.set_num_threads(1 if len(Z) <= 64 else (self.n_threads or threads))
-        try:
-            with torch.inference_mode():
-                for start in range(0, len(Z), 1024):
-                    logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
-                    out.append(torch.softmax(logits, dim=1).cpu().numpy())
-        finally:
-            torch.set_num_threads(threads)
+        with _torch_threads(torch, lambda threads: 1 if len(Z) <= 64
+                            else (self.n_threads or threads)), torch.inference_mode():
+            for start in range(0, len(Z), 1024):
+                logits = module(torch.as_tensor(Z[start:start + 1024], device=device))
+                out.append(torch.softmax(logits, dim=1).cpu().numpy())
         # the float32 softmax sums to 1 within ~1e-7 only, outside scikit-learn's float64
         # tolerance (log_loss warned "do not sum to one"): each row is divided by its own
         # float64 sum, which keeps its order (the decisions) and every value in [0, 1]
