@@ -18,6 +18,7 @@ on one window (:class:`MiniRocketPipeline`), with scikit-learn's arithmetic.
 from __future__ import annotations
 
 import importlib.util
+import threading
 
 import numpy as np
 from sklearn.base import BaseEstimator, TransformerMixin
@@ -31,6 +32,12 @@ from terrain.models.compiled import CompiledPipeline
 #: Fewest samples of a window MiniRocket transforms: its kernels span 9 samples (aeon refuses
 #: shorter series).
 MIN_WINDOW_SAMPLES = 9
+
+#: Held by every fit while aeon seeds NumPy's global generator and draws the kernels from
+#: it: two fits in threads of one process (joblib's threading backend) drew from one
+#: another's seeded stream (other kernels than the seed's), and the caller's stream was left
+#: at a fit's seeded state; under this lock they run one at a time, as sequential fits.
+_NUMPY_RNG_LOCK = threading.RLock()
 
 
 def require_aeon() -> None:
@@ -147,13 +154,15 @@ class MiniRocketFeatures(TransformerMixin, BaseEstimator):
         X = _signal_windows(X)
         # aeon seeds NumPy's global generator with np.random.seed(seed) (its biases are
         # drawn from it): the caller's random stream was reset to the seed's by every fit
-        caller_stream = np.random.get_state()
-        try:
-            self.rocket_ = MiniRocket(n_kernels=self.n_kernels,
-                                      max_dilations_per_kernel=self.max_dilations_per_kernel,
-                                      n_jobs=self.n_jobs, random_state=seed).fit(X)
-        finally:
-            np.random.set_state(caller_stream)
+        with _NUMPY_RNG_LOCK:
+            caller_stream = np.random.get_state()
+            try:
+                self.rocket_ = MiniRocket(
+                    n_kernels=self.n_kernels,
+                    max_dilations_per_kernel=self.max_dilations_per_kernel,
+                    n_jobs=self.n_jobs, random_state=seed).fit(X)
+            finally:
+                np.random.set_state(caller_stream)
         self.n_features_in_ = X.shape[1]
         return self
 
