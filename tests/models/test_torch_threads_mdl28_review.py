@@ -147,3 +147,32 @@ def test_a_failing_fit_or_prediction_frees_the_locks_for_other_threads(monkeypat
                 lock.release()
         return got
     assert _in_new_thread(take_both) == [True, True]
+
+
+def test_a_fit_started_beside_a_prediction_trains_on_the_process_count(two_threads,
+                                                                       monkeypatch):
+    X, y = _windows()
+    model = RawCNNClassifier(max_epochs=1, batch_size=4).fit(X, y)
+    inside = threading.Event()
+    forward = _slow_forward(model.net_.module_, 0.3)
+
+    def marked(*args, **kwargs):
+        inside.set()
+        return forward(*args, **kwargs)
+    model.net_.module_.forward = marked
+    seen = []
+    fit = skorch.NeuralNetClassifier.fit
+
+    def watched(self, *args, **kwargs):
+        seen.append(torch.get_num_threads())
+        return fit(self, *args, **kwargs)
+
+    monkeypatch.setattr(skorch.NeuralNetClassifier, "fit", watched)
+    a = threading.Thread(target=model.predict_proba, args=(X[:3],))    # 1 thread meanwhile
+    a.start()
+    assert inside.wait(10)
+    # a fit on torch's own count, in a thread started during that prediction
+    _in_new_thread(lambda: RawCNNClassifier(max_epochs=1, batch_size=4).fit(X, y))
+    a.join(30)
+    assert seen == [two_threads]
+    assert _in_new_thread(torch.get_num_threads) == two_threads
