@@ -32,6 +32,7 @@ import contextlib
 import json
 import os
 import tempfile
+import threading
 from collections.abc import Hashable
 from pathlib import Path
 from urllib.parse import urlparse
@@ -584,12 +585,22 @@ def register_model(model_uri: str, name: str) -> str:
     return str(mlflow.register_model(model_uri, name).version)
 
 
+#: the contexts of :func:`artifact_progress` hiding the bars now, and the value the first
+#: found (restored by the last to leave); guarded by :data:`_PROGRESS_LOCK`
+_PROGRESS_HIDDEN: dict = {"open": 0, "before": None}
+_PROGRESS_LOCK = threading.Lock()
+
+
 @contextlib.contextmanager
 def artifact_progress(enabled: bool):
     """Context in which MLflow shows (or hides) its artifact up/download progress bars.
 
     MLflow reads ``MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR`` from the environment at every
-    transfer; it is set inside the context and restored after.
+    transfer; it is set inside the context and restored after, on success or failure.
+    The environment is the process's: contexts open at once in several threads (models
+    loaded concurrently) share one setting, which the last to leave restores to what the
+    first found (each restoring what it found left ``"false"`` for ever when they
+    overlapped, and the first to leave showed the bars to the others).
 
     Parameters
     ----------
@@ -604,15 +615,22 @@ def artifact_progress(enabled: bool):
     if enabled:
         yield
         return
-    before = os.environ.get(key)
-    os.environ[key] = "false"
+    with _PROGRESS_LOCK:
+        if _PROGRESS_HIDDEN["open"] == 0:
+            _PROGRESS_HIDDEN["before"] = os.environ.get(key)
+        _PROGRESS_HIDDEN["open"] += 1
+        os.environ[key] = "false"
     try:
         yield
     finally:
-        if before is None:
-            os.environ.pop(key, None)
-        else:
-            os.environ[key] = before
+        with _PROGRESS_LOCK:
+            _PROGRESS_HIDDEN["open"] -= 1
+            if _PROGRESS_HIDDEN["open"] == 0:
+                before, _PROGRESS_HIDDEN["before"] = _PROGRESS_HIDDEN["before"], None
+                if before is None:
+                    os.environ.pop(key, None)
+                else:
+                    os.environ[key] = before
 
 
 def local_model_dir(uri: str | Path) -> Path | None:
