@@ -3,12 +3,17 @@ behind in the process, and two threads using one context or model at once."""
 
 from __future__ import annotations
 
+import copy
 import os
 import threading
+from types import SimpleNamespace
 
+import numpy as np
+import pandas as pd
 import pytest
 
-from terrain.serving import pyfunc
+from terrain.serving import pyfunc, served
+from terrain.serving.served import ServedInputError, is_long
 
 KEY = "MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR"
 
@@ -76,3 +81,71 @@ def test_artifact_progress_many_threads(no_key):
         t.join(10)
     assert errors == []
     assert KEY not in os.environ
+
+
+@pytest.fixture(scope="module")
+def served_wheels(wheel_model, tmp_path_factory):
+    """The wheel model as the served pyfunc, loaded as the scoring server loads it."""
+    import joblib
+
+    from terrain.serving.served import ServedStreamModel, served_settings
+
+    path = tmp_path_factory.mktemp("served_threads") / "pipeline.joblib"
+    joblib.dump(wheel_model.pipeline, path)
+    context = SimpleNamespace(artifacts={"pipeline": str(path)},
+                              model_config=served_settings(wheel_model))
+    model = ServedStreamModel()
+    model.load_context(context)
+    return model
+
+
+def test_concurrent_requests_in_both_lanes_answer_as_one_at_a_time(served_wheels,
+                                                                   unseen_wheel_request,
+                                                                   monkeypatch):
+    # the scoring server runs each request in a thread of its own: short requests and a
+    # long one (its own lane, so run at the same time) share one loaded model; every
+    # answer must be what the request gets alone, and the model's settings unchanged
+    # (the fixture's run is 10 s long: a request of more than 7 s takes the long lane)
+    monkeypatch.setattr(served, "LONG_REQUEST_S", 7.0)
+    short = [unseen_wheel_request(s) for s in (4.0, 5.0, 6.0)]
+    bad = short[1].copy()
+    bad.loc[4, "t_s"] = np.nan
+    long = unseen_wheel_request(12.0)
+    assert is_long(long) and not is_long(short[0])
+    requests = [*short, long, bad]
+    alone = [_answer(served_wheels, r) for r in requests]
+    settings = copy.deepcopy(served_wheels.settings)
+    for _ in range(3):
+        _concurrently(served_wheels, requests, alone)
+    assert served_wheels.settings == settings
+
+
+def _concurrently(model, requests, alone):
+    """Each request sent twice at once, in threads started together, answered as alone."""
+    barrier = threading.Barrier(len(requests) * 2)
+    got: dict = {}
+
+    def work(i):
+        barrier.wait(10)
+        got[i] = _answer(model, requests[i % len(requests)])
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(requests) * 2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join(60)
+    assert len(got) == len(threads)
+    for i, answer in got.items():
+        expected = alone[i % len(requests)]
+        if isinstance(expected, str):
+            assert answer == expected
+        else:
+            pd.testing.assert_frame_equal(answer, expected)
+
+
+def _answer(model, frame):
+    """The served answer to ``frame``, or the refusal's message."""
+    try:
+        return model.predict(None, frame.copy())
+    except ServedInputError as exc:
+        return exc.message
