@@ -10,6 +10,7 @@ directly, so the streaming service needs no MLflow server or pyfunc wrapper.
 from __future__ import annotations
 
 import contextlib
+import errno
 import math
 import shutil
 import tempfile
@@ -52,7 +53,8 @@ def new_model_directory(path: str | Path) -> Iterator[Path]:
     Raises
     ------
     ConfigError
-        ``path`` exists and is not an empty directory.
+        ``path`` exists and is not an empty directory, at the start or when the model is
+        renamed to it (another save of the same path finished first: its model is kept).
     """
     path = Path(path)
     if path.exists() and (not path.is_dir() or any(path.iterdir())):
@@ -62,9 +64,17 @@ def new_model_directory(path: str | Path) -> Iterator[Path]:
     stage.rmdir()
     try:
         yield stage
-        if path.exists():
-            path.rmdir()
-        stage.rename(path)
+        try:
+            if path.exists():
+                path.rmdir()
+            stage.rename(path)
+        except OSError as exc:
+            # another save of the same path (another process) finished first: its model is
+            # kept, this one is refused as at the start (a bare "Directory not empty")
+            if exc.errno not in (errno.ENOTEMPTY, errno.EEXIST, errno.ENOTDIR):
+                raise
+            raise ConfigError(f"model directory {path} exists and is not empty (written "
+                              "meanwhile by another save)") from None
     finally:
         shutil.rmtree(stage, ignore_errors=True)
 

@@ -149,3 +149,24 @@ def _answer(model, frame):
         return model.predict(None, frame.copy())
     except ServedInputError as exc:
         return exc.message
+
+
+@pytest.mark.parametrize("empty_before", [False, True])
+def test_a_model_directory_written_meanwhile_by_another_save_is_refused_and_kept(
+        tmp_path, empty_before):
+    # two saves of one path at once (two processes): both found it absent (or empty), the
+    # other finished first; this one failed with a bare OSError (Directory not empty)
+    from terrain.errors import ConfigError
+    from terrain.serving.model import new_model_directory
+
+    path = tmp_path / "model"
+    if empty_before:
+        path.mkdir()
+    with pytest.raises(ConfigError, match="model directory .* exists and is not empty"):
+        with new_model_directory(path) as stage:
+            stage.mkdir()
+            (stage / "MLmodel").write_text("mine")
+            path.mkdir(exist_ok=True)                    # the other save, done first
+            (path / "MLmodel").write_text("theirs")
+    assert (path / "MLmodel").read_text() == "theirs"
+    assert [p.name for p in tmp_path.iterdir()] == ["model"]   # no staging left
