@@ -146,7 +146,7 @@ def _concurrently(model, requests, alone):
 def _answer(model, frame):
     """The served answer to ``frame``, or the refusal's message."""
     try:
-        return model.predict(None, frame.copy())
+        return model.predict(None, frame.copy() if isinstance(frame, pd.DataFrame) else frame)
     except ServedInputError as exc:
         return exc.message
 
@@ -170,3 +170,29 @@ def test_a_model_directory_written_meanwhile_by_another_save_is_refused_and_kept
             (path / "MLmodel").write_text("theirs")
     assert (path / "MLmodel").read_text() == "theirs"
     assert [p.name for p in tmp_path.iterdir()] == ["model"]   # no staging left
+
+
+def _process_state(loggers=None):
+    """What a request must leave as it found it in the process (of the loggers named in
+    ``loggers``, all when None: a first request may create others, as imports do)."""
+    import logging
+    import sys
+    import warnings
+
+    return (np.geterr(), np.get_printoptions(), list(warnings.filters), dict(os.environ),
+            os.getcwd(), list(sys.path), logging.getLogger().level,
+            {n: (lg.level, list(lg.handlers), list(lg.filters))
+             for n, lg in logging.Logger.manager.loggerDict.items()
+             if isinstance(lg, logging.Logger) and (loggers is None or n in loggers)},
+            np.random.get_state()[1].tobytes(), threading.active_count())
+
+
+def test_requests_leave_the_process_as_they_found_it(served_wheels, unseen_wheel_request):
+    good = unseen_wheel_request(6.0)
+    bad = good.copy()
+    bad.loc[4:9, "t_s"] = np.nan                    # refused half-way (a burst)
+    odd = good.assign(vel_l=good["vel_l"] * 1e3)    # refused by a run-level rule
+    before = _process_state()       # before the first request too: a change made once
+    for frame in (good, bad, odd, good.iloc[:3], "not a frame", good):
+        _answer(served_wheels, frame)
+        assert _process_state(before[7]) == before
