@@ -196,3 +196,51 @@ def test_requests_leave_the_process_as_they_found_it(served_wheels, unseen_wheel
     for frame in (good, bad, odd, good.iloc[:3], "not a frame", good):
         _answer(served_wheels, frame)
         assert _process_state(before[7]) == before
+
+
+def test_the_terrain_pyfunc_predicts_from_threads_at_once_as_alone(
+        wheel_model, train_runs, borealtc_runs, tmp_path):
+    # the terrain predict pyfunc, served by MLflow, loads its pipeline on the first predict
+    # when load_context has not run: threads started together on a fresh model (each may
+    # load it) and on a loaded one answer as one at a time
+    import joblib
+
+    from terrain.serving.pyfunc import TerrainModel, runs_to_model_input
+
+    path = tmp_path / "pipeline.joblib"
+    joblib.dump(wheel_model.pipeline, path)
+    w = wheel_model.window
+    config = {"channels": list(wheel_model.channels), "classes": list(wheel_model.classes),
+              "window": {"window_s": w.window_s, "hop_s": None, "rate_hz": w.rate_hz}}
+    context = SimpleNamespace(model_config=config, artifacts={"pipeline": str(path)})
+    seen = {r.run_id for r in train_runs}
+    runs = [r for r in borealtc_runs if r.run_id not in seen][:3]
+    inputs = [runs_to_model_input([r], wheel_model.channels, w.rate_hz)[0] for r in runs]
+    alone = [_loaded(context).predict(context, x.copy()) for x in inputs]
+    assert all(len(a) for a in alone)
+    for model in (TerrainModel(), _loaded(context)):
+        barrier = threading.Barrier(3 * len(inputs))
+        got: dict = {}
+
+        def work(i, model=model, barrier=barrier, got=got):
+            barrier.wait(10)
+            got[i] = model.predict(context, inputs[i % len(inputs)].copy())
+
+        threads = [threading.Thread(target=work, args=(i,)) for i in range(3 * len(inputs))]
+        for t in threads:
+            t.start()
+        for t in threads:
+            t.join(60)
+        assert len(got) == len(threads)
+        for i, answer in got.items():
+            pd.testing.assert_frame_equal(answer, alone[i % len(inputs)])
+            assert answer.attrs == alone[i % len(inputs)].attrs
+
+
+def _loaded(context):
+    """A terrain pyfunc loaded from ``context``."""
+    from terrain.serving.pyfunc import TerrainModel
+
+    model = TerrainModel()
+    model.load_context(context)
+    return model
