@@ -19,6 +19,7 @@ import math
 import os
 import subprocess
 import tempfile
+import threading
 import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -266,6 +267,10 @@ TAG_LIMIT = 8000
 #: Artifact listing every non-finite metric name when the tag cannot hold them all.
 NON_FINITE_FILE = "non_finite_metrics.txt"
 _MORE_NON_FINITE = ",..."
+#: Held while a run's ``non_finite_metrics`` tag is read, merged and written back: two
+#: threads logging at once (through one handle or two) each wrote a list made before the
+#: other's names were added, and the last erased the other's names.
+_NON_FINITE_LOCK = threading.Lock()
 
 
 @dataclass(frozen=True)
@@ -321,7 +326,8 @@ class TrackedRun:
         skipped and listed in a tag (``non_finite_metrics``: the names of every call so far,
         sorted). Where the list is longer than a tag holds (:data:`TAG_LIMIT` characters),
         the tag lists the first whole names and ends ``,... N more in
-        non_finite_metrics.txt``, an artifact listing every name, one a line.
+        non_finite_metrics.txt``, an artifact listing every name, one a line. Threads of
+        one process may log at once (the tag is merged under a lock).
 
         Parameters
         ----------
@@ -352,22 +358,27 @@ class TrackedRun:
         self.client.log_batch(self.run_id, metrics=[Metric(k, v, now_ms, step or 0)
                                                     for k, v in good.items()])
         if bad:   # added to those of earlier calls, which the tag (or its file) keeps
-            before = self.client.get_run(self.run_id).data.tags.get("non_finite_metrics")
-            listed = (before or "").partition(_MORE_NON_FINITE)[0]
-            self._non_finite.update(listed.split(",") if listed else ())
-            self._non_finite.update(bad)
-            names = sorted(self._non_finite)
-            text = ",".join(names)
-            if len(text) > TAG_LIMIT:     # MLflow would cut the tag, mid-name
-                self.client.log_text(self.run_id, "\n".join(names) + "\n", NON_FINITE_FILE)
+            with _NON_FINITE_LOCK:
+                self._list_non_finite(bad)
 
-                def more(n_kept: int) -> str:
-                    return f"{_MORE_NON_FINITE} {len(names) - n_kept} more in {NON_FINITE_FILE}"
-                n = 0                     # the most whole names that fit beside the count
-                while len(",".join(names[:n + 1]) + more(n + 1)) <= TAG_LIMIT:
-                    n += 1
-                text = ",".join(names[:n]) + more(n)
-            self.client.set_tag(self.run_id, "non_finite_metrics", text)
+    def _list_non_finite(self, bad: list[str]) -> None:
+        """Merge ``bad`` into the ``non_finite_metrics`` tag (:meth:`log_metrics`)."""
+        before = self.client.get_run(self.run_id).data.tags.get("non_finite_metrics")
+        listed = (before or "").partition(_MORE_NON_FINITE)[0]
+        self._non_finite.update(listed.split(",") if listed else ())
+        self._non_finite.update(bad)
+        names = sorted(self._non_finite)
+        text = ",".join(names)
+        if len(text) > TAG_LIMIT:     # MLflow would cut the tag, mid-name
+            self.client.log_text(self.run_id, "\n".join(names) + "\n", NON_FINITE_FILE)
+
+            def more(n_kept: int) -> str:
+                return f"{_MORE_NON_FINITE} {len(names) - n_kept} more in {NON_FINITE_FILE}"
+            n = 0                     # the most whole names that fit beside the count
+            while len(",".join(names[:n + 1]) + more(n + 1)) <= TAG_LIMIT:
+                n += 1
+            text = ",".join(names[:n]) + more(n)
+        self.client.set_tag(self.run_id, "non_finite_metrics", text)
 
     def log_table(self, frame: pd.DataFrame, name: str) -> None:
         """Log a DataFrame as a CSV artifact.

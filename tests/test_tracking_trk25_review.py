@@ -1,0 +1,97 @@
+"""Review trk25: what tracking does to the process (MLflow's process-wide store, the
+environment) and what happens when two threads log at once."""
+
+from __future__ import annotations
+
+import threading
+import time
+
+import mlflow
+import pytest
+
+from terrain.tracking import TrackedRun, tracked_run, tracking_uri
+
+
+@pytest.fixture
+def store(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    return tmp_path
+
+
+def _slow_first_set_tag(client, monkeypatch, seconds=0.3):
+    """The first ``set_tag`` through ``client`` waits ``seconds`` before writing: the window
+    in which another thread's later call reads and writes the tag."""
+    original = client.set_tag
+    calls = []
+
+    def set_tag(*args, **kwargs):
+        calls.append(args)
+        if len(calls) == 1:
+            time.sleep(seconds)
+        return original(*args, **kwargs)
+    monkeypatch.setattr(client, "set_tag", set_tag)
+
+
+def _together(*jobs):
+    barrier = threading.Barrier(len(jobs))
+    errors = []
+
+    def start(job, delay):
+        try:
+            barrier.wait()
+            time.sleep(delay)
+            job()
+        except BaseException as exc:      # pragma: no cover - reported below
+            errors.append(exc)
+    threads = [threading.Thread(target=start, args=(job, 0.1 * i))
+               for i, job in enumerate(jobs)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert not errors, errors
+
+
+@pytest.mark.parametrize("handles", ["one", "two"])
+def test_non_finite_metrics_logged_by_two_threads_are_all_listed(store, monkeypatch, handles):
+    # the tag is read, merged and written back: a thread that wrote a list made before the
+    # other thread's names were added erased them (non_finite_metrics 'a' for 'a' and 'b')
+    with tracked_run("terrain-test", announce=False) as run:
+        other = run if handles == "one" else TrackedRun(run.run_id, run.experiment, run.uri,
+                                                        run.client)
+        _slow_first_set_tag(run.client, monkeypatch)
+        _together(lambda: run.log_metrics({"a": float("nan")}),
+                  lambda: other.log_metrics({"b": float("inf")}))
+        tag = run.client.get_run(run.run_id).data.tags["non_finite_metrics"]
+    assert tag == "a,b"
+
+
+def test_tracked_runs_of_two_threads_stay_apart(store, monkeypatch):
+    # MLflow's active run is per thread: a run opened in one thread is neither the parent
+    # of the other thread's run nor ended by it
+    previous = mlflow.get_tracking_uri()
+    uri = tracking_uri()
+    mlflow.set_tracking_uri(uri)
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)      # (set_tracking_uri exported it)
+    seen = {}
+
+    def job(name):
+        def run():
+            with tracked_run("terrain-test", run_name=name, params={"who": name},
+                             announce=False) as r:
+                time.sleep(0.2)
+                r.log_metrics({"x": 1.0})
+                seen[name] = (r.run_id, mlflow.active_run().info.run_id)
+        return run
+    try:
+        _together(job("a"), job("b"))
+    finally:
+        mlflow.set_tracking_uri(previous)
+    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
+    for name, (run_id, active) in seen.items():
+        assert run_id == active
+        run = client.get_run(run_id)
+        assert run.info.status == "FINISHED"
+        assert run.data.params["who"] == name
+        assert "mlflow.parentRunId" not in run.data.tags
