@@ -163,11 +163,14 @@ def activate_store() -> tuple[str, bool]:
     """For entry points only: make the store in force MLflow's process-wide default.
 
     MLflow's fluent API (``mlflow.pyfunc.load_model("models:/...")``, model logging) reads a
-    process-wide tracking URI; setting it is a process-wide side effect (MLflow also exports
-    ``MLFLOW_TRACKING_URI`` for child processes), so only a program's entry point should call
-    this. Nothing is changed when MLflow already resolves to the store in force, which is
-    the case in a fresh process (MLflow's own default is the same ``sqlite:///<cwd>/mlflow.db``
-    and it reads the same environment variable). :func:`tracked_run` does not need it.
+    process-wide tracking URI; setting it is a process-wide side effect, so only a program's
+    entry point should call this. ``MLFLOW_TRACKING_URI`` is left as it was (MLflow would
+    export the embedded store's URI, which names the current folder's database, to the rest
+    of the process and its child processes). Nothing is changed when MLflow already resolves
+    to the store in force, which is the case in a fresh process (MLflow's own default is the
+    same ``sqlite:///<cwd>/mlflow.db`` and it reads the same environment variable), unless
+    the folder holds an old ``./mlruns`` (MLflow's default is then that file store).
+    :func:`tracked_run` does not need it.
 
     Returns
     -------
@@ -178,10 +181,18 @@ def activate_store() -> tuple[str, bool]:
     """
     import mlflow
 
-    embedded = not os.environ.get("MLFLOW_TRACKING_URI")
+    exported = os.environ.get("MLFLOW_TRACKING_URI")
+    embedded = not exported
     uri = tracking_uri()
     if mlflow.get_tracking_uri() != uri:
         mlflow.set_tracking_uri(uri)
+        # MLflow exports the URI; for the embedded store that named this folder's database
+        # to whatever ran next in the process (a command run in-process in another folder
+        # logged into this one's store, as if MLFLOW_TRACKING_URI named it)
+        if exported is None:
+            os.environ.pop("MLFLOW_TRACKING_URI", None)
+        else:
+            os.environ["MLFLOW_TRACKING_URI"] = exported
     return uri, embedded
 
 

@@ -3,13 +3,14 @@ environment) and what happens when two threads log at once."""
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 
 import mlflow
 import pytest
 
-from terrain.tracking import TrackedRun, tracked_run, tracking_uri
+from terrain.tracking import TrackedRun, activate_store, tracked_run, tracking_uri
 
 
 @pytest.fixture
@@ -95,3 +96,43 @@ def test_tracked_runs_of_two_threads_stay_apart(store, monkeypatch):
         assert run.info.status == "FINISHED"
         assert run.data.params["who"] == name
         assert "mlflow.parentRunId" not in run.data.tags
+
+
+def test_activating_the_embedded_store_leaves_the_environment_as_it_was(tmp_path, monkeypatch):
+    # in a folder where MLflow's own default is another store (an old ./mlruns), or after a
+    # caller chose another store, activate_store set MLflow's URI, and MLflow exported
+    # MLFLOW_TRACKING_URI=sqlite:///<that folder>/mlflow.db: a later command run in-process
+    # in another folder read the variable and logged into the first folder's store
+    first, second = tmp_path / "first", tmp_path / "second"
+    first.mkdir()
+    second.mkdir()
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    previous = mlflow.get_tracking_uri()
+    try:
+        mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'other.db'}")
+        monkeypatch.delenv("MLFLOW_TRACKING_URI")      # (set_tracking_uri exported it)
+        monkeypatch.chdir(first)
+        assert activate_store() == (f"sqlite:///{first / 'mlflow.db'}", True)
+        assert mlflow.get_tracking_uri() == f"sqlite:///{first / 'mlflow.db'}"
+        assert "MLFLOW_TRACKING_URI" not in os.environ
+        monkeypatch.chdir(second)
+        assert activate_store() == (f"sqlite:///{second / 'mlflow.db'}", True)
+        assert mlflow.get_tracking_uri() == f"sqlite:///{second / 'mlflow.db'}"
+        assert "MLFLOW_TRACKING_URI" not in os.environ
+    finally:
+        mlflow.set_tracking_uri(previous)
+        os.environ.pop("MLFLOW_TRACKING_URI", None)
+
+
+def test_activating_a_store_named_by_the_environment_keeps_it(tmp_path, monkeypatch):
+    uri = f"sqlite:///{tmp_path / 'named.db'}"
+    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+    previous = mlflow.get_tracking_uri()
+    try:
+        mlflow.set_tracking_uri(f"sqlite:///{tmp_path / 'other.db'}")
+        monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)
+        assert activate_store() == (uri, False)
+        assert mlflow.get_tracking_uri() == uri
+        assert os.environ["MLFLOW_TRACKING_URI"] == uri
+    finally:
+        mlflow.set_tracking_uri(previous)
