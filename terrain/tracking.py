@@ -231,20 +231,32 @@ def _experiment_id(client: Any, name: str, uri: str) -> str:
     the experiment: a stray ``mlruns/`` there, and one store's artifacts spread over
     folders. Other stores choose their own location. A deleted experiment (``mlflow
     experiments delete``) is a :class:`~terrain.errors.ConfigError` naming it and how to
-    restore it: MLflow's own refusal of its runs named neither.
+    restore it: MLflow's own refusal of its runs named neither. An experiment another
+    process creates between the look-up and the creation (two commands started together on
+    a store :func:`store_lock` does not lock, a tracking server) is used: MLflow's
+    ``RESOURCE_ALREADY_EXISTS`` failed the second command.
     """
+    from mlflow.exceptions import MlflowException
+
     exp = client.get_experiment_by_name(name)
-    if exp is not None and getattr(exp, "lifecycle_stage", "active") == "deleted":
+    if exp is None:
+        database = sqlite_database(uri)
+        location = (None if database is None
+                    else (database.resolve().parent / ARTIFACT_DIR / name).as_uri())
+        try:
+            return client.create_experiment(name, artifact_location=location)
+        except MlflowException as exc:
+            if exc.error_code != "RESOURCE_ALREADY_EXISTS":
+                raise
+            exp = client.get_experiment_by_name(name)     # created meanwhile
+            if exp is None:
+                raise
+    if getattr(exp, "lifecycle_stage", "active") == "deleted":
         raise ConfigError(f"MLflow experiment {name!r} (id {exp.experiment_id}) is deleted in "
                           f"the store {uri}: restore it (mlflow experiments restore "
                           f"--experiment-id {exp.experiment_id}, with MLFLOW_TRACKING_URI="
                           f"{uri}), delete it for good (mlflow gc), or use another store")
-    if exp is not None:
-        return exp.experiment_id
-    database = sqlite_database(uri)
-    location = (None if database is None
-                else (database.resolve().parent / ARTIFACT_DIR / name).as_uri())
-    return client.create_experiment(name, artifact_location=location)
+    return exp.experiment_id
 
 
 def _is_number(value) -> bool:

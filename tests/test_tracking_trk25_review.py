@@ -136,3 +136,29 @@ def test_activating_a_store_named_by_the_environment_keeps_it(tmp_path, monkeypa
         assert os.environ["MLFLOW_TRACKING_URI"] == uri
     finally:
         mlflow.set_tracking_uri(previous)
+
+
+def test_an_experiment_created_by_another_process_meanwhile_is_used(tmp_path, monkeypatch):
+    # a store that is not locked (a tracking server): two commands started together both
+    # found no experiment and both created it; the second got MLflow's "already exists"
+    # (RESOURCE_ALREADY_EXISTS) and failed instead of logging into it
+    from terrain.tracking import _experiment_id
+
+    uri = f"sqlite:///{tmp_path / 'mlflow.db'}"
+    client = mlflow.MlflowClient(tracking_uri=uri)
+    client.search_experiments()            # (the tables, before the threads)
+    original = client.get_experiment_by_name
+    looked = []
+
+    def get_experiment_by_name(name):
+        found = original(name)
+        looked.append(name)
+        if len(looked) <= 2:
+            time.sleep(0.3)                # both have looked before either creates it
+        return found
+    monkeypatch.setattr(client, "get_experiment_by_name", get_experiment_by_name)
+    ids = []
+    _together(lambda: ids.append(_experiment_id(client, "terrain-test", uri)),
+              lambda: ids.append(_experiment_id(client, "terrain-test", uri)))
+    assert len(ids) == 2 and ids[0] == ids[1]
+    assert [e.name for e in client.search_experiments()].count("terrain-test") == 1
