@@ -10,7 +10,7 @@ import time
 import mlflow
 import pytest
 
-from terrain.tracking import TrackedRun, activate_store, tracked_run, tracking_uri
+from terrain.tracking import TrackedRun, activate_store, tracked_run
 
 
 @pytest.fixture
@@ -66,36 +66,6 @@ def test_non_finite_metrics_logged_by_two_threads_are_all_listed(store, monkeypa
                   lambda: other.log_metrics({"b": float("inf")}))
         tag = run.client.get_run(run.run_id).data.tags["non_finite_metrics"]
     assert tag == "a,b"
-
-
-def test_tracked_runs_of_two_threads_stay_apart(store, monkeypatch):
-    # MLflow's active run is per thread: a run opened in one thread is neither the parent
-    # of the other thread's run nor ended by it
-    previous = mlflow.get_tracking_uri()
-    uri = tracking_uri()
-    mlflow.set_tracking_uri(uri)
-    monkeypatch.setenv("MLFLOW_TRACKING_URI", uri)      # (set_tracking_uri exported it)
-    seen = {}
-
-    def job(name):
-        def run():
-            with tracked_run("terrain-test", run_name=name, params={"who": name},
-                             announce=False) as r:
-                time.sleep(0.2)
-                r.log_metrics({"x": 1.0})
-                seen[name] = (r.run_id, mlflow.active_run().info.run_id)
-        return run
-    try:
-        _together(job("a"), job("b"))
-    finally:
-        mlflow.set_tracking_uri(previous)
-    client = mlflow.MlflowClient(tracking_uri=tracking_uri())
-    for name, (run_id, active) in seen.items():
-        assert run_id == active
-        run = client.get_run(run_id)
-        assert run.info.status == "FINISHED"
-        assert run.data.params["who"] == name
-        assert "mlflow.parentRunId" not in run.data.tags
 
 
 def test_activating_the_embedded_store_leaves_the_environment_as_it_was(tmp_path, monkeypatch):
