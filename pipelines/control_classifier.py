@@ -38,6 +38,7 @@ import dataclasses
 import hashlib
 import json
 import shutil
+import tempfile
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -238,19 +239,45 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
             "controlled_windows": int(np.sum(from_controlled)),
             "windows_per_class": {c: int(np.sum(y == c)) for c in classes},
             "training_accuracy": float(np.mean(pipe.predict(ws.X) == y))}
-    tmp = folder / "model.tmp"
-    shutil.rmtree(tmp, ignore_errors=True)
-    example = runs_to_model_input(runs[:1], ws.channels, CLASSIFIER_WINDOW.rate_hz)[0]
-    save_model(tmp, pipe, ws.channels, CLASSIFIER_WINDOW, classes,
-               {"dataset": "sim", "vehicle": vehicle, "seeds": settings["seeds"],
-                "scenarios": list(scenarios), "signals": signals,
-                "controlled_runs": bool(controlled_runs), "training_windows": int(len(ws))},
-               input_example=example.head(CLASSIFIER_WINDOW.n_samples))
-    shutil.rmtree(model_dir, ignore_errors=True)
-    tmp.rename(model_dir)
+    # a staging name of this training's own: two commands training the same entry at once
+    # (two control-grid runs) each removed the other's half-written ``model.tmp``
+    folder.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=".model-", suffix=".partial", dir=folder)) / "model"
+    try:
+        example = runs_to_model_input(runs[:1], ws.channels, CLASSIFIER_WINDOW.rate_hz)[0]
+        save_model(tmp, pipe, ws.channels, CLASSIFIER_WINDOW, classes,
+                   {"dataset": "sim", "vehicle": vehicle, "seeds": settings["seeds"],
+                    "scenarios": list(scenarios), "signals": signals,
+                    "controlled_runs": bool(controlled_runs),
+                    "training_windows": int(len(ws))},
+                   input_example=example.head(CLASSIFIER_WINDOW.n_samples))
+        _move_in(tmp, model_dir)
+    finally:
+        shutil.rmtree(tmp.parent, ignore_errors=True)
     # whole or not at all: the cache takes a model with its info.json as complete
     replace_text(info_path, json.dumps(info, indent=1) + "\n")
     return model_dir, {**info, "cached": False}
+
+
+def _move_in(staged: Path, model_dir: Path) -> None:
+    """Rename the staged model folder onto ``model_dir`` in one step.
+
+    A whole model another command moved in meanwhile (the same settings, so the same
+    training) is kept and ``staged`` left to be removed: the other command, or a third one
+    that found the cache complete, may be reading it. Anything else in the way (a folder
+    without ``MLmodel``) is removed first.
+    """
+    for _ in range(3):
+        try:
+            staged.rename(model_dir)
+            return
+        except OSError:
+            if (model_dir / "MLmodel").exists():
+                return
+            if not model_dir.exists():
+                raise
+            shutil.rmtree(model_dir, ignore_errors=True)
+    staged.rename(model_dir)
 
 
 def add_classifier_options(parser) -> None:
