@@ -198,11 +198,31 @@ def staged_outputs(folder: str | Path, owned: Sequence[str],
         yield stage
         written = sorted((p.name for p in stage.iterdir() if p.is_file()),
                          key=lambda name: (name in last, name))
-        for pattern in owned:
-            for old in folder.glob(pattern):
-                if old.is_file() and old.name not in written:
-                    old.unlink()
-        for name in written:
-            os.replace(stage / name, folder / name)
+        # one command at a time moves its files in (two writing one folder at once left a
+        # mix: the summary of one beside tables of both); the last to do so wins, whole
+        with _folder_lock(folder):
+            for pattern in owned:
+                for old in folder.glob(pattern):
+                    if old.is_file() and old.name not in written:
+                        old.unlink(missing_ok=True)
+            for name in written:
+                os.replace(stage / name, folder / name)
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def _folder_lock(folder: Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock (``flock``) on ``folder`` itself (no lock file is
+    left in it); a no-op where the system has no ``flock``."""
+    try:
+        import fcntl
+    except ImportError:     # pragma: no cover - not a POSIX system
+        yield
+        return
+    fd = os.open(folder, os.O_RDONLY)
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX)
+        yield
+    finally:
+        os.close(fd)    # releases the lock
