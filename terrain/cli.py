@@ -48,6 +48,10 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
 })
 
 
+#: the environment variable naming the MLflow store (:func:`terrain.tracking.tracking_uri`)
+_URI_VARIABLE = "MLFLOW_TRACKING_URI"
+
+
 #: placeholder help (zero-width space): argparse prints no line for an option without help
 _NO_HELP = "\u200b"
 
@@ -164,6 +168,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     # caller's thread keeps Python's default, which ends the process where it stands)
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
+    # MLflow exports the store activate_store sets (it does, from a folder whose name its
+    # URI quotes: ``My Robots``): put the variable back, or a caller's next command, from
+    # another folder, logs to this one's store
+    environ_uri = os.environ.get(_URI_VARIABLE)
     try:
         with warnings.catch_warnings():
             warnings.showwarning = _show_warning
@@ -213,6 +221,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
+        if environ_uri is None:
+            os.environ.pop(_URI_VARIABLE, None)
+        else:
+            os.environ[_URI_VARIABLE] = environ_uri
 
 
 def _silence_stdout() -> None:

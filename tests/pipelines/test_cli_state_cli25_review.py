@@ -1,0 +1,43 @@
+"""What the ``terrain`` entry point leaves in the process (cli25): a command run in-process
+from a folder whose name MLflow writes quoted (a space: ``My Robots``) left
+``MLFLOW_TRACKING_URI`` set, so the next command, from another folder, logged to the
+first folder's store."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from terrain import cli
+from terrain.errors import ConfigError
+from terrain.tracking import tracking_uri
+
+
+@pytest.mark.parametrize("fails", [False, True])
+@pytest.mark.parametrize("name", ["My Robots", "runs#1", "été"])
+def test_the_next_command_from_another_folder_uses_that_folders_store(monkeypatch, tmp_path,
+                                                                      capsys, name, fails):
+    from mlflow.tracking._tracking_service import utils as mlflow_tracking
+
+    from pipelines import slip_table
+
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.setattr(mlflow_tracking, "_tracking_uri", None)   # as in a fresh process
+    seen = []
+
+    def command(args):
+        seen.append(tracking_uri())
+        if fails:
+            raise ConfigError("refused")
+        return 0
+
+    monkeypatch.setattr(slip_table, "main", command)
+    first, second = tmp_path / name, tmp_path / "other"
+    for folder in (first, second):
+        folder.mkdir()
+        monkeypatch.chdir(folder)
+        assert cli.main(["slip-table"]) == (2 if fails else 0)
+        assert "MLFLOW_TRACKING_URI" not in os.environ
+    capsys.readouterr()
+    assert seen == [f"sqlite:///{first / 'mlflow.db'}", f"sqlite:///{second / 'mlflow.db'}"]
