@@ -14,6 +14,7 @@ import argparse
 import numpy as np
 
 from pipelines.arguments import output_dir, positive_number, seed_value, sim_duration_s
+from terrain.io.jsonfile import folder_lock
 from terrain.io.writer import free_index, write_run
 from terrain.run import Run
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
@@ -86,7 +87,12 @@ def main(args: argparse.Namespace) -> int:
                        effects=parse_effects(args.effect), physics=args.physics, **segment)
     free_index(args.out / config.run_terrain)   # a full folder refused before simulating
     run = simulate(config)
-    paths = write_run(run, args.out)
+    folder = args.out / config.run_terrain
+    folder.mkdir(parents=True, exist_ok=True)
+    # one command at a time takes the next run number and writes it: two at once both took
+    # run 00 and wrote it through the same temporary names (one run lost, or an error)
+    with folder_lock(folder):
+        paths = write_run(run, args.out)
     print(f"wrote {len(paths)} files to {paths['meta'].parent} (run {paths['meta'].stem[-2:]})")
     if segment and len(set(terrains)) == 1:
         # an option that changes nothing is said, not silently ignored

@@ -9,7 +9,8 @@ Python's :func:`json.dumps` writes a NaN or infinite float as the bare tokens ``
 Output files are written whole or not at all: :func:`whole_file` (one file through a
 temporary name and :func:`os.replace`; the commands' CSV and JSON outputs),
 :func:`replace_text` (the same for a text) and :func:`staged_outputs` (a command's set of
-files, moved in together).
+files, moved in together); :func:`folder_lock` lets two commands writing one folder take
+turns.
 """
 
 from __future__ import annotations
@@ -200,7 +201,7 @@ def staged_outputs(folder: str | Path, owned: Sequence[str],
                          key=lambda name: (name in last, name))
         # one command at a time moves its files in (two writing one folder at once left a
         # mix: the summary of one beside tables of both); the last to do so wins, whole
-        with _folder_lock(folder):
+        with folder_lock(folder):
             for pattern in owned:
                 for old in folder.glob(pattern):
                     if old.is_file() and old.name not in written:
@@ -212,9 +213,28 @@ def staged_outputs(folder: str | Path, owned: Sequence[str],
 
 
 @contextlib.contextmanager
-def _folder_lock(folder: Path) -> Iterator[None]:
-    """Hold an exclusive advisory lock (``flock``) on ``folder`` itself (no lock file is
-    left in it); a no-op where the system has no ``flock``."""
+def folder_lock(folder: str | Path) -> Iterator[None]:
+    """Hold an exclusive advisory lock on ``folder`` while the block runs.
+
+    Two commands that each take this lock before writing into one folder write one after
+    the other (the other waits). The lock is ``flock`` on the folder itself, so no lock file
+    is left in it, and the system releases it when the process ends; a no-op where the
+    system has no ``flock``.
+
+    Parameters
+    ----------
+    folder : str or pathlib.Path
+        An existing folder.
+
+    Yields
+    ------
+    None
+
+    Raises
+    ------
+    OSError
+        ``folder`` cannot be opened (missing, no permission).
+    """
     try:
         import fcntl
     except ImportError:     # pragma: no cover - not a POSIX system
