@@ -110,3 +110,27 @@ def test_two_runs_training_the_same_classifier_at_once_both_get_a_whole_model(
     assert control_classifier.sim_classifier(
         "husky", ("ICE", "SNOW"), seeds=(2000,), scenarios=("straight_accel",),
         cache_dir=tmp_path, controlled_runs=False)[1]["cached"]
+
+
+def test_a_whole_model_another_run_moved_in_meanwhile_is_kept_not_replaced(tmp_path,
+                                                                           monkeypatch):
+    # a third run may have found it complete and be reading it: replacing it (rmtree, then
+    # rename) pulled the files from under that reader
+    saves: list = []
+    _cheap_training(monkeypatch, saves)
+    real_save = control_classifier.save_model
+
+    def save_model(path, *args, **kwargs):
+        real_save(path, *args, **kwargs)
+        other = path.parent.parent / "model"     # another run finished first
+        other.mkdir()
+        (other / "MLmodel").write_text("other run\n")
+        (other / "python_model.pkl").write_text("other run\n")
+
+    monkeypatch.setattr(control_classifier, "save_model", save_model)
+    path, info = control_classifier.sim_classifier(
+        "husky", ("ICE", "SNOW"), seeds=(2000,), scenarios=("straight_accel",),
+        cache_dir=tmp_path, controlled_runs=False)
+    assert not info["cached"]
+    assert (path / "MLmodel").read_text() == "other run\n"
+    assert sorted(p.name for p in path.parent.iterdir()) == ["info.json", "model"]
