@@ -119,6 +119,38 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"terrain: {kind}: {message}", file=sys.stderr)
 
 
+class _OneLineWarnings:
+    """Context manager: :func:`_show_warning` prints the warnings while any call of
+    :func:`main` runs; the first to enter saves the warnings' state
+    (:class:`warnings.catch_warnings`), the last to leave puts it back. (Each call with its
+    own ``catch_warnings``: two calls at once, in two threads, left the one-line printer
+    installed for good, as the later one put back what it had found, the earlier's.)"""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._calls = 0
+        self._saved: warnings.catch_warnings | None = None
+
+    def __enter__(self) -> None:
+        with self._lock:
+            if self._calls == 0:
+                self._saved = warnings.catch_warnings()
+                self._saved.__enter__()
+                warnings.showwarning = _show_warning
+            self._calls += 1
+
+    def __exit__(self, *exc) -> None:
+        with self._lock:
+            self._calls -= 1
+            if self._calls == 0 and self._saved is not None:
+                saved, self._saved = self._saved, None
+                saved.__exit__(None, None, None)
+
+
+_one_line_warnings = _OneLineWarnings()
+"""The one instance :func:`main` enters (shared by every call of the process)."""
+
+
 class _Terminated(KeyboardInterrupt):
     """SIGTERM, raised where the command stands so that it unwinds as after Ctrl-C (an open
     MLflow run ends ``FAILED``, temporary files go) instead of the process ending there."""
@@ -173,8 +205,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     # another folder, logs to this one's store
     environ_uri = os.environ.get(_URI_VARIABLE)
     try:
-        with warnings.catch_warnings():
-            warnings.showwarning = _show_warning
+        with _one_line_warnings:
             try:
                 # the entry point owns MLflow's process-wide store (model logging, the registry
                 # and ``models:/`` URIs read it); the library never sets it

@@ -68,3 +68,36 @@ def test_mlflows_process_wide_store_is_as_the_caller_left_it(monkeypatch, tmp_pa
         assert mlflow.get_tracking_uri() == f"sqlite:///{second / 'mlflow.db'}"
     finally:
         mlflow_tracking._tracking_uri = None
+
+
+def test_two_commands_run_at_once_in_threads_leave_pythons_warning_printer(monkeypatch,
+                                                                           capsys):
+    # each call saved and put back the warnings' state on its own: the later call put back
+    # what it had found (the earlier's one-line printer), installed for good
+    import threading
+    import time
+    import warnings
+
+    from pipelines import slip_table
+    from terrain.errors import DataWarning
+
+    def command(args):
+        time.sleep(0.05)
+        warnings.warn("assumed 100 Hz", DataWarning)
+        return 0
+
+    monkeypatch.setattr(slip_table, "main", command)
+    cli.build_parser()   # (the first import of MLflow adds its own warnings filters)
+    before = (warnings.showwarning, list(warnings.filters))
+    for delay in (0.0, 0.02, 0.04):
+        threads = [threading.Thread(target=cli.main, args=(["slip-table"],))
+                   for _ in range(2)]
+        threads[0].start()
+        time.sleep(delay)
+        threads[1].start()
+        for t in threads:
+            t.join()
+        assert (warnings.showwarning, list(warnings.filters)) == before
+    # (Python prints a warning once per line of code while one warnings state lasts: the
+    # two calls of a round, at once, share one)
+    assert capsys.readouterr().err.count("terrain: warning: assumed 100 Hz") >= 3
