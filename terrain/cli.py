@@ -122,18 +122,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
 class _OneLineWarnings:
     """Context manager: :func:`_show_warning` prints the warnings while any call of
     :func:`main` runs; the first to enter saves the warnings' state
-    (:class:`warnings.catch_warnings`), the last to leave puts it back. (Each call with its
-    own ``catch_warnings``: two calls at once, in two threads, left the one-line printer
-    installed for good, as the later one put back what it had found, the earlier's.)"""
+    (:class:`warnings.catch_warnings`) and ``MLFLOW_TRACKING_URI``, the last to leave puts
+    them back. (Each call on its own: two calls at once, in two threads, left the one-line
+    printer installed for good, as the later one put back what it had found, the
+    earlier's. MLflow exports the store :func:`terrain.tracking.activate_store` sets, which
+    it does from a folder whose name its URI quotes, ``My Robots``: left set, a caller's
+    next command, from another folder, logged to this one's store.)"""
 
     def __init__(self) -> None:
         self._lock = threading.Lock()
         self._calls = 0
         self._saved: warnings.catch_warnings | None = None
+        self._uri: str | None = None
 
     def __enter__(self) -> None:
         with self._lock:
             if self._calls == 0:
+                self._uri = os.environ.get(_URI_VARIABLE)
                 self._saved = warnings.catch_warnings()
                 self._saved.__enter__()
                 warnings.showwarning = _show_warning
@@ -145,6 +150,10 @@ class _OneLineWarnings:
             if self._calls == 0 and self._saved is not None:
                 saved, self._saved = self._saved, None
                 saved.__exit__(None, None, None)
+                if self._uri is None:
+                    os.environ.pop(_URI_VARIABLE, None)
+                else:
+                    os.environ[_URI_VARIABLE] = self._uri
 
 
 _one_line_warnings = _OneLineWarnings()
@@ -200,10 +209,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     # caller's thread keeps Python's default, which ends the process where it stands)
     main_thread = threading.current_thread() is threading.main_thread()
     previous = signal.signal(signal.SIGTERM, _terminate) if main_thread else None
-    # MLflow exports the store activate_store sets (it does, from a folder whose name its
-    # URI quotes: ``My Robots``): put the variable back, or a caller's next command, from
-    # another folder, logs to this one's store
-    environ_uri = os.environ.get(_URI_VARIABLE)
     try:
         with _one_line_warnings:
             try:
@@ -252,10 +257,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if main_thread:
             signal.signal(signal.SIGTERM, signal.SIG_DFL if previous is None else previous)
-        if environ_uri is None:
-            os.environ.pop(_URI_VARIABLE, None)
-        else:
-            os.environ[_URI_VARIABLE] = environ_uri
 
 
 def _silence_stdout() -> None:

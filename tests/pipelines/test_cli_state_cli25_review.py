@@ -101,3 +101,30 @@ def test_two_commands_run_at_once_in_threads_leave_pythons_warning_printer(monke
     # (Python prints a warning once per line of code while one warnings state lasts: the
     # two calls of a round, at once, share one)
     assert capsys.readouterr().err.count("terrain: warning: assumed 100 Hz") >= 3
+
+
+def test_two_commands_at_once_from_a_quoted_folder_leave_the_variable_unset(monkeypatch,
+                                                                            tmp_path):
+    # each call put back the variable as it had found it: the later one found the
+    # earlier's export and put it back, for good
+    import threading
+    import time
+
+    from mlflow.tracking._tracking_service import utils as mlflow_tracking
+
+    from pipelines import slip_table
+
+    monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
+    monkeypatch.setattr(mlflow_tracking, "_tracking_uri", None)
+    monkeypatch.setattr(slip_table, "main", lambda args: time.sleep(0.05) or 0)
+    cli.build_parser()
+    folder = tmp_path / "My Robots"
+    folder.mkdir()
+    monkeypatch.chdir(folder)
+    threads = [threading.Thread(target=cli.main, args=(["slip-table"],)) for _ in range(2)]
+    threads[0].start()
+    time.sleep(0.02)
+    threads[1].start()
+    for t in threads:
+        t.join()
+    assert "MLFLOW_TRACKING_URI" not in os.environ
