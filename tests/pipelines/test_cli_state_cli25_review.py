@@ -128,3 +128,30 @@ def test_two_commands_at_once_from_a_quoted_folder_leave_the_variable_unset(monk
     for t in threads:
         t.join()
     assert "MLFLOW_TRACKING_URI" not in os.environ
+
+
+def test_a_command_still_running_when_another_ends_keeps_the_one_line_warnings(
+        monkeypatch, capsys):
+    import threading
+    import time
+    import warnings
+
+    from pipelines import slip_table
+    from terrain.errors import DataWarning
+
+    def command(args):
+        if threading.current_thread().name == "long":
+            time.sleep(0.15)    # the short call ends meanwhile
+            warnings.warn("long call's note", DataWarning)
+        return 0
+
+    monkeypatch.setattr(slip_table, "main", command)
+    cli.build_parser()
+    threads = [threading.Thread(target=cli.main, args=(["slip-table"],), name=name)
+               for name in ("long", "short")]
+    threads[0].start()
+    time.sleep(0.05)
+    threads[1].start()
+    for t in threads:
+        t.join()
+    assert "terrain: warning: long call's note" in capsys.readouterr().err
