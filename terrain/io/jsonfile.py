@@ -16,6 +16,7 @@ turns.
 from __future__ import annotations
 
 import contextlib
+import errno
 import json
 import os
 import shutil
@@ -219,7 +220,7 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
     Two commands that each take this lock before writing into one folder write one after
     the other (the other waits). The lock is ``flock`` on the folder itself, so no lock file
     is left in it, and the system releases it when the process ends; a no-op where the
-    system has no ``flock``.
+    system, or the folder's file system, has no ``flock``.
 
     Parameters
     ----------
@@ -242,7 +243,16 @@ def folder_lock(folder: str | Path) -> Iterator[None]:
         return
     fd = os.open(folder, os.O_RDONLY)
     try:
-        fcntl.flock(fd, fcntl.LOCK_EX)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError as exc:
+            if exc.errno not in _NO_LOCKS:
+                raise
+            # a file system without locks (some network and FUSE ones): written as before
         yield
     finally:
         os.close(fd)    # releases the lock
+
+
+#: errors of ``flock`` on a file system that has no locks
+_NO_LOCKS = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOTSUP, errno.EINVAL)

@@ -70,3 +70,16 @@ def test_two_commands_writing_one_out_folder_at_once_leave_one_commands_files(
         i = int(winner.pop().split()[1])
         assert names == sorted(sets[i] + ["notes.txt"])
         assert {(out / n).read_text() for n in sets[i]} == {f"run {i}\n"}
+
+
+def test_a_file_system_without_locks_still_takes_the_outputs(tmp_path, monkeypatch):
+    import errno
+    import fcntl
+
+    def no_locks(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    monkeypatch.setattr(fcntl, "flock", no_locks)
+    with staged_outputs(tmp_path, ["*.csv"]) as stage:
+        (stage / "a.csv").write_text("x\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["a.csv"]
