@@ -25,6 +25,7 @@ from typing import Mapping, Sequence
 # the pipelines, MLflow and scikit-learn load in main (seconds): a Ctrl-C meanwhile is
 # main's one line, not a traceback of import frames
 from terrain.errors import DataWarning, TerrainError
+from terrain.process_state import SharedSetting
 
 #: subcommand -> pipelines module implementing it
 SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
@@ -46,10 +47,6 @@ SUBCOMMANDS: Mapping[str, str] = MappingProxyType({
     "stream-eval": "pipelines.stream_eval",
     "serve": "pipelines.serve",
 })
-
-
-#: the environment variable naming the MLflow store (:func:`terrain.tracking.tracking_uri`)
-_URI_VARIABLE = "MLFLOW_TRACKING_URI"
 
 
 #: placeholder help (zero-width space): argparse prints no line for an option without help
@@ -119,45 +116,23 @@ def _show_warning(message, category, filename, lineno, file=None, line=None) -> 
     print(f"terrain: {kind}: {message}", file=sys.stderr)
 
 
-class _OneLineWarnings:
-    """Context manager: :func:`_show_warning` prints the warnings while any call of
-    :func:`main` runs; the first to enter saves the warnings' state
-    (:class:`warnings.catch_warnings`) and ``MLFLOW_TRACKING_URI``, the last to leave puts
-    them back. (Each call on its own: two calls at once, in two threads, left the one-line
-    printer installed for good, as the later one put back what it had found, the
-    earlier's. MLflow exports the store :func:`terrain.tracking.activate_store` sets, which
-    it does from a folder whose name its URI quotes, ``My Robots``: left set, a caller's
-    next command, from another folder, logged to this one's store.)"""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._calls = 0
-        self._saved: warnings.catch_warnings | None = None
-        self._uri: str | None = None
-
-    def __enter__(self) -> None:
-        with self._lock:
-            if self._calls == 0:
-                self._uri = os.environ.get(_URI_VARIABLE)
-                self._saved = warnings.catch_warnings()
-                self._saved.__enter__()
-                warnings.showwarning = _show_warning
-            self._calls += 1
-
-    def __exit__(self, *exc) -> None:
-        with self._lock:
-            self._calls -= 1
-            if self._calls == 0 and self._saved is not None:
-                saved, self._saved = self._saved, None
-                saved.__exit__(None, None, None)
-                if self._uri is None:
-                    os.environ.pop(_URI_VARIABLE, None)
-                else:
-                    os.environ[_URI_VARIABLE] = self._uri
+def _save_warnings() -> warnings.catch_warnings:
+    """The warnings' state as it is (entered :class:`warnings.catch_warnings`)."""
+    saved = warnings.catch_warnings()
+    saved.__enter__()
+    return saved
 
 
-_one_line_warnings = _OneLineWarnings()
-"""The one instance :func:`main` enters (shared by every call of the process)."""
+def _print_warnings_on_one_line(saved: warnings.catch_warnings) -> None:
+    warnings.showwarning = _show_warning
+
+
+_one_line_warnings = SharedSetting(_save_warnings, _print_warnings_on_one_line,
+                                   lambda saved: saved.__exit__(None, None, None))
+"""The warnings' state while any call of :func:`main` runs: :func:`_show_warning` prints
+them; the first call to enter saves the state, the last to leave puts it back
+(:class:`terrain.process_state.SharedSetting`; each call restoring what it had found left
+the one-line printer installed for good when two calls ran at once in two threads)."""
 
 
 class _Terminated(KeyboardInterrupt):
@@ -196,7 +171,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     """
     try:
         from pipelines.arguments import check_output_files
-        from terrain.tracking import activate_store, store_errors
+        from terrain.tracking import active_store, store_errors
 
         parser = build_parser()     # imports every pipeline
         args = parser.parse_args(argv)
@@ -213,10 +188,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         with _one_line_warnings:
             try:
                 # the entry point owns MLflow's process-wide store (model logging, the registry
-                # and ``models:/`` URIs read it); the library never sets it
-                activate_store()
-                status = int(args._main(args) or 0)
-                sys.stdout.flush()      # a reader gone away fails here, not in Python's exit
+                # and ``models:/`` URIs read it) while the command runs; the library never sets
+                # it, and the caller of an in-process call finds it as it left it
+                with active_store():
+                    status = int(args._main(args) or 0)
+                    sys.stdout.flush()  # a reader gone away fails here, not in Python's exit
                 return status
             except BrokenPipeError:
                 if debug:

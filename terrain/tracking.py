@@ -10,7 +10,8 @@
   in a git checkout, else the package version).
 * No process-wide side effects: :func:`tracked_run` passes the store and the artifact
   location to MLflow explicitly (an ``MlflowClient``) and never edits ``os.environ``; only
-  an entry point may make the store MLflow's process-wide default (:func:`activate_store`).
+  an entry point may make the store MLflow's process-wide default (:func:`activate_store`,
+  or for the length of a call, :func:`active_store`).
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ import pandas as pd
 import terrain
 from terrain.errors import ConfigError
 from terrain.io.jsonfile import json_ready
+from terrain.process_state import SharedSetting, restore_environment_variable
 
 DB_FILE = "mlflow.db"
 ARTIFACT_DIR = "mlartifacts"
@@ -194,6 +196,60 @@ def activate_store() -> tuple[str, bool]:
         else:
             os.environ["MLFLOW_TRACKING_URI"] = exported
     return uri, embedded
+
+
+def _mlflow_store_setting() -> tuple[str | None, str | None]:
+    """MLflow's process-wide tracking URI as set (None: never set, MLflow resolves its
+    default from the environment and the working folder at each use) and
+    ``MLFLOW_TRACKING_URI`` as it is.
+
+    MLflow 3.17 keeps the URI set by ``mlflow.set_tracking_uri`` in
+    ``mlflow.tracking._tracking_service.utils._tracking_uri`` and offers no public getter
+    that tells "set" from "resolved" (``mlflow.get_tracking_uri`` resolves); the version is
+    pinned, and tests/pipelines/test_cli_state_cli25_review.py fails if this changes.
+    """
+    from mlflow.tracking._tracking_service import utils
+
+    return getattr(utils, "_tracking_uri", None), os.environ.get("MLFLOW_TRACKING_URI")
+
+
+def _restore_mlflow_store(saved: tuple[str | None, str | None]) -> None:
+    import mlflow
+    from mlflow.tracking._tracking_service import utils
+
+    uri, variable = saved
+    if getattr(utils, "_tracking_uri", None) != uri:
+        mlflow.set_tracking_uri(uri)    # None: unset again (MLflow's own _use_tracking_uri)
+    # set_tracking_uri exports (or unsets) MLFLOW_TRACKING_URI; the caller's value wins
+    restore_environment_variable("MLFLOW_TRACKING_URI", variable)
+
+
+_ACTIVE_STORE = SharedSetting(_mlflow_store_setting, lambda saved: activate_store(),
+                              _restore_mlflow_store)
+
+
+def active_store() -> SharedSetting:
+    """For entry points only: the store in force as MLflow's process-wide default for the
+    length of a call (a context manager), put back as the caller had it afterwards.
+
+    :func:`activate_store` on entering; on leaving, MLflow's process-wide tracking URI and
+    ``MLFLOW_TRACKING_URI`` are as the caller left them, so a command run in-process (from a
+    folder MLflow's URI quotes, ``My Robots``) does not leave that folder's store as the
+    default of what the caller runs next from another folder. Calls that overlap (commands
+    run at once in threads) share the setting: the first to enter saves MLflow's, the last
+    to leave puts it back (:class:`terrain.process_state.SharedSetting`).
+
+    Returns
+    -------
+    terrain.process_state.SharedSetting
+        The context manager (one per process).
+
+    Raises
+    ------
+    ConfigError
+        On entering, as :func:`activate_store` (nothing is changed then).
+    """
+    return _ACTIVE_STORE
 
 
 def code_version() -> str:

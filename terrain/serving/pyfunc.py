@@ -30,9 +30,7 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
 import tempfile
-import threading
 from collections.abc import Hashable
 from pathlib import Path
 from urllib.parse import urlparse
@@ -48,6 +46,7 @@ from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, No
                             TimestampError, duplicated)
 from terrain.io.align import align_streams
 from terrain.io.plausibility import check_accel_units, check_ranges
+from terrain.process_state import environment_variable
 from terrain.run import TIME, Run
 from terrain.serving.model import (load_pipeline, measured_channels, model_vehicle,
                                    new_model_directory, read_model_metadata)
@@ -587,8 +586,8 @@ def register_model(model_uri: str, name: str) -> str:
 
 #: the contexts of :func:`artifact_progress` hiding the bars now, and the value the first
 #: found (restored by the last to leave); guarded by :data:`_PROGRESS_LOCK`
-_PROGRESS_HIDDEN: dict = {"open": 0, "before": None}
-_PROGRESS_LOCK = threading.Lock()
+_PROGRESS_HIDDEN = environment_variable("MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR", "false")
+"""MLflow's artifact progress bars hidden while any :func:`artifact_progress` context is open."""
 
 
 @contextlib.contextmanager
@@ -599,8 +598,9 @@ def artifact_progress(enabled: bool):
     transfer; it is set inside the context and restored after, on success or failure.
     The environment is the process's: contexts open at once in several threads (models
     loaded concurrently) share one setting, which the last to leave restores to what the
-    first found (each restoring what it found left ``"false"`` for ever when they
-    overlapped, and the first to leave showed the bars to the others).
+    first found (:class:`terrain.process_state.SharedSetting`; each restoring what it found
+    left ``"false"`` for ever when they overlapped, and the first to leave showed the bars
+    to the others).
 
     Parameters
     ----------
@@ -611,26 +611,11 @@ def artifact_progress(enabled: bool):
     ------
     None
     """
-    key = "MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR"
     if enabled:
         yield
         return
-    with _PROGRESS_LOCK:
-        if _PROGRESS_HIDDEN["open"] == 0:
-            _PROGRESS_HIDDEN["before"] = os.environ.get(key)
-        _PROGRESS_HIDDEN["open"] += 1
-        os.environ[key] = "false"
-    try:
+    with _PROGRESS_HIDDEN:
         yield
-    finally:
-        with _PROGRESS_LOCK:
-            _PROGRESS_HIDDEN["open"] -= 1
-            if _PROGRESS_HIDDEN["open"] == 0:
-                before, _PROGRESS_HIDDEN["before"] = _PROGRESS_HIDDEN["before"], None
-                if before is None:
-                    os.environ.pop(key, None)
-                else:
-                    os.environ[key] = before
 
 
 def local_model_dir(uri: str | Path) -> Path | None:

@@ -43,12 +43,8 @@ def test_the_next_command_from_another_folder_uses_that_folders_store(monkeypatc
     assert seen == [f"sqlite:///{first / 'mlflow.db'}", f"sqlite:///{second / 'mlflow.db'}"]
 
 
-@pytest.mark.xfail(strict=True, reason="terrain.tracking.activate_store sets MLflow's "
-                   "process-wide tracking URI (mlflow.set_tracking_uri) and nothing puts it "
-                   "back: after a command run in-process from 'My Robots', the caller's "
-                   "mlflow.get_tracking_uri() names that folder's store from any folder; "
-                   "restoring it needs terrain.tracking (outside terrain/cli.py, which does "
-                   "not import mlflow)")
+# terrain.tracking.activate_store set MLflow's process-wide tracking URI and nothing put it
+# back: the caller's mlflow.get_tracking_uri() named the first folder's store from any folder
 def test_mlflows_process_wide_store_is_as_the_caller_left_it(monkeypatch, tmp_path, capsys):
     import mlflow
     from mlflow.tracking._tracking_service import utils as mlflow_tracking
