@@ -33,6 +33,7 @@ from pipelines.arguments import positive_integer
 from terrain.control.desired_slip import build_slip_table
 from terrain.control.traction import TractionControlConfig, TractionState, traction_control_step
 from terrain.slip import sae_slip
+from terrain.terramechanics.slip import rim_speed_from_slip
 from terrain.tracking import require_store, tracked_run
 
 WHEEL_RADIUS_M = 0.165
@@ -49,7 +50,11 @@ def make_inputs(n_steps: int, n_units: int, rng: np.random.Generator) -> dict[st
     a = 0.3 * np.cos(0.5 * t)                                    # m/s^2
     slip = 0.1 + 0.08 * rng.standard_normal((n_steps, n_units))
     v_long = v[:, None] * (1.0 + 0.02 * rng.standard_normal((n_steps, n_units)))
-    omega = v_long / (1.0 - np.clip(slip, -0.5, 0.5)) / WHEEL_RADIUS_M
+    # the rim speed of each slip: SAE's inverse, traction and braking branches (seed 001
+    # eqs. 7.1-7.2); v / (1 - s) alone gave braking samples the slip s / (1 - s)
+    rim_m_s = np.vectorize(lambda v_m_s, s: rim_speed_from_slip(v_m_s, s)[0],
+                           otypes=[float])(v_long, np.clip(slip, -0.5, 0.5))
+    omega = rim_m_s / WHEEL_RADIUS_M
     return {"omega_ll": v[:, None] / WHEEL_RADIUS_M + 0 * slip, "omega": omega,
             "v_long": v_long, "a": a[:, None] + 0 * slip, "slip": slip, "chassis": v}
 

@@ -12,7 +12,6 @@ from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
-import pytest
 from sklearn.dummy import DummyClassifier
 
 from terrain.models.cv import cross_validate
@@ -190,13 +189,8 @@ def test_vulpi_probes_scores_with_the_projects_window_metrics(monkeypatch):
     assert len(calls) == len(rows) == 4
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "bench_control.py's make_inputs writes the wheel speeds as omega = v / (1 - s) / r for "
-    "every slip, the traction inverse of the SAE slip; for a braking slip (s < 0, about 10 "
-    "% of its samples) the SAE slip of those speeds (terrain.slip.sae_slip, what the "
-    "controller computes for the AgriMaRo and four-wheel setups) is s / (1 - s), not the "
-    "slip the Husky setup is given; terramechanics' rim_speed_from_slip would change the "
-    "timed inputs behind README's us-per-wheel figure, so it is left to the maintainers"))
+# bench_control.py's make_inputs wrote omega = v / (1 - s) / r for every slip, the traction
+# inverse: a braking slip s was timed as the SAE slip s / (1 - s)
 def test_bench_control_wheel_speeds_carry_the_slip_they_are_timed_with():
     from terrain.slip import sae_slip
 
