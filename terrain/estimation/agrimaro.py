@@ -67,8 +67,8 @@ from terrain.estimation.model import KernelModel, StateSpaceModel, diagonal_proc
 from terrain.estimation.prefilter import ema_filter
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_sensor_names,
-                                       check_time_offsets, make_grid, run_filter,
-                                       stream_samples)
+                                       check_time_offsets, clock_rate_hz, make_grid,
+                                       run_filter, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.swerve import AGRIMARO, AgriMaRoParams
@@ -520,7 +520,7 @@ def estimate_agrimaro(run: Run, settings: AgriMaRoEKFSettings = AgriMaRoEKFSetti
                               f"sample{'' if t_imu.size == 1 else 's'}; the filter's clock "
                               "needs 2 or more", run.source)
     rate = check_rate_hz(rate_hz)
-    rate = float(1.0 / np.median(np.diff(t_imu))) if rate is None else rate
+    rate = clock_rate_hz(t_imu) if rate is None else rate
     # the IMU stream as the filter reads it, its latency subtracted (the recorded times put
     # the first corrected samples before the grid, counted outside, and ran on past the last)
     t_imu = t_imu - float(dict(time_offsets_s or {}).get("imu", 0.0))

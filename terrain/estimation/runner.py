@@ -80,6 +80,40 @@ def check_rate_hz(rate_hz: float | None, name: str = "rate_hz") -> float | None:
     return rate
 
 
+def clock_rate_hz(t_s: np.ndarray) -> float:
+    """Sample rate of a stream read off its own clock, Hz: the estimators' default filter
+    rate.
+
+    ``1 / median step``, the median step snapped, within the clock's rounding, to the span
+    of the samples over the whole number of median steps it holds. A step between two
+    timestamps is known to one unit in the last place of the clock only (1.5e-11 s at 1e5
+    s, 2.4e-7 s on an epoch clock), so the median step of 100 Hz samples on a clock shifted
+    by 1e5 s read 100.0000000524 Hz: a grid at that rate drifted 5e-9 s from the samples
+    in 1000 steps, past the placement slack (:func:`terrain.run.clock_slack`, 1 ns there),
+    and samples landed one step late. The span over its step count knows the step to that
+    rounding divided by the count. A median step farther than two units in the last place
+    of the clock from that mean step (jitter, gaps: a rate that is not the clock's rounding
+    alone) is kept as it is.
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (k,)
+        Sample times, s, finite and strictly increasing, ``k >= 2``.
+
+    Returns
+    -------
+    float
+        Rate, Hz.
+    """
+    t = np.asarray(t_s, dtype=float)
+    step = float(np.median(np.diff(t)))
+    span = float(t[-1] - t[0])
+    n = round(span / step)
+    if n >= 1 and abs(span / n - step) <= 2.0 * float(np.spacing(np.abs(t).max())):
+        step = span / n     # the clock's rounding alone: the mean step knows it n times better
+    return 1.0 / step
+
+
 @dataclass(frozen=True)
 class SensorSamples:
     """Samples of one sensor.

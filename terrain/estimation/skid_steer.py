@@ -47,8 +47,8 @@ from terrain.estimation.equations.skid_steer import (SkidSteerEquationParams, ob
 from terrain.estimation.model import KernelModel, diagonal_process_noise
 from terrain.estimation.result import EKFResult
 from terrain.estimation.runner import (SensorSamples, check_rate_hz, check_time_offsets,
-                                       make_grid, run_filter, sensor_groups, stream_overlap_s,
-                                       stream_samples)
+                                       clock_rate_hz, make_grid, run_filter, sensor_groups,
+                                       stream_overlap_s, stream_samples)
 from terrain.run import TIME, Run
 from terrain.vehicles import get_vehicle
 from terrain.vehicles.icr import chi_from_truth  # noqa: F401  (public here too)
@@ -313,7 +313,7 @@ def estimate_skid_steer(run: Run, settings: SkidSteerSettings | None = None, *,
                                   "or more of each stream it reads", run.source)
     fast = spans[-1]
     rate = check_rate_hz(rate_hz)
-    rate = float(1.0 / np.median(np.diff(fast))) if rate is None else rate
+    rate = clock_rate_hz(fast) if rate is None else rate
     t0, t1 = stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
                               f", after time_offsets_s {off}")
     settings = _without_gyro(settings, samples["gyro"].values if "gyro" in samples else None)

@@ -108,13 +108,6 @@ def test_skid_steer_filter_at_a_given_rate_ignores_a_clock_shift(husky_run):
     np.testing.assert_allclose(b.x, a.x, atol=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "left alone (est20): the default filter rate 1 / median(diff(t_imu)) of a clock shifted "
-    "by 1e5 s is 100.0000000524 Hz for 100 Hz samples (their differences are quantised to "
-    "1.5e-11 s), so the grid drifts 5e-9 s from the samples after 1000 steps, past the 1e-9 s "
-    "placement tolerance of terrain.run.step_index: samples land one step late and the "
-    "states differ by up to 0.02; a fix (rate snapping or a relative placement tolerance, "
-    "shared with the simulator) could move measured figures"))
 def test_skid_steer_filter_at_its_default_rate_ignores_a_clock_shift(husky_run):
     """The same run on a clock that starts a day later, at the filter's default rate (the
     IMU's median sample rate): the same estimate."""
