@@ -268,8 +268,7 @@ def _filter_loop(transition, observation, model, data, options, out):
     sel = np.empty(m, dtype=np.int64)             # accepted positions among the available
     Sa = np.empty((m, m))
     B = np.empty((m, n + 1))
-    BR = np.empty((m, n))
-    AP = np.empty((n, n))
+    At = np.empty((n, n))                         # (I - K H)^T of an update
     for k in range(N):
         if k > 0:
             # -- predict (eqs. 4.3, 4.5): P = F P F^T + Q, F applied through its non-zeros
@@ -372,42 +371,52 @@ def _filter_loop(transition, observation, model, data, options, out):
                     yv = ya[sel[a]]
                     for i in range(n):
                         x[i] += B[a, i] * yv
-                # Joseph form P = A P A^T + K R K^T with A = I - K H, evaluated as
-                # AP = P - K (H P) (H P is at hand), then
-                # P = AP - (AP H^T) K^T + K R K^T = AP + sum_a G[a, :]^T K[:, a]^T with
-                # G[a, i] = r_a K[i, a] - (AP H^T)[i, a]   (H applied through its non-zeros)
-                for i in range(n):                # AP = P - K (H P), K = B[:, :n]^T
+                # Joseph form P = A P A^T + K R K^T with A = I - K H formed first, as the
+                # reference does: a sum of two PSD terms, so round-off cannot take P far
+                # from PSD (evaluated as (P - K H P) + (K R - (P - K H P) H^T) K^T it was
+                # the short form (I - K H) P plus a term zero for the optimal gain, and lost
+                # PSD as the short form does: -3e-6 of the largest eigenvalue where the
+                # reference kept -3e-12). A is kept as its transpose At, so that both
+                # products are row updates over contiguous rows (vectorised; each entry
+                # summed over e = 0, 1, ... as a dot product would)
+                for e in range(n):                # At = (I - K H)^T, K = B[:, :n]^T, H
+                    for i in range(n):            # through its non-zeros
+                        At[e, i] = 1.0 if i == e else 0.0
+                for a in range(nacc):
+                    s_a = sel[a]
+                    for nz in range(h_cnt[s_a]):
+                        e = h_nz[s_a, nz]
+                        hae = Ha[s_a, e]
+                        for i in range(n):
+                            At[e, i] -= B[a, i] * hae
+                for i in range(n):                # T = A P, row i: sum_e A[i, e] P[e, :]
                     for c in range(n):
-                        AP[i, c] = P[i, c]
-                for a in range(nacc):
-                    s_a = sel[a]
-                    for i in range(n):
-                        kia = B[a, i]
+                        T[i, c] = 0.0
+                    for e in range(n):
+                        aie = At[e, i]
                         for c in range(n):
-                            AP[i, c] -= kia * HP[s_a, c]
-                for a in range(nacc):             # G = K R - AP H^T (rows a of BR)
-                    s_a = sel[a]
-                    r_a = r_diag[rows[s_a]]
-                    for i in range(n):
-                        g = B[a, i] * r_a
-                        for e in range(h_cnt[s_a]):
-                            j = h_nz[s_a, e]
-                            g -= AP[i, j] * Ha[s_a, j]
-                        BR[a, i] = g
-                # P = AP + G^T K^T as rank-one row updates (independent, vectorisable;
-                # per entry the same order: AP, then a = 0, 1, ...), then the upper
-                # triangle mirrored: symmetric
-                for i in range(n):
-                    for j in range(n):
-                        P[i, j] = AP[i, j]
-                for a in range(nacc):
-                    for i in range(n):
-                        g = BR[a, i]
+                            T[i, c] += aie * P[e, c]
+                for i in range(n):                # P = T A^T + K R K^T (P is read no more:
+                    for j in range(n):            # T holds A P), row i: sum_e T[i, e] At[e, :]
+                        P[i, j] = 0.0
+                    for e in range(n):
+                        tie = T[i, e]
                         for j in range(n):
-                            P[i, j] += g * B[a, j]
+                            P[i, j] += tie * At[e, j]
+                    for a in range(nacc):
+                        kr = B[a, i] * r_diag[rows[sel[a]]]
+                        for j in range(n):
+                            P[i, j] += kr * B[a, j]
+                # symmetrised as (P + P^T) / 2, as the reference: the round-off of A P is
+                # large against a posterior far below the prior, and the mean of the two
+                # triangles keeps P PSD to round-off where mirroring one did not (-4e-7 of
+                # the largest eigenvalue on tests/estimation/test_numerics_est25_review's
+                # draws, the mean -6e-11)
                 for i in range(n):
                     for j in range(i + 1, n):
-                        P[j, i] = P[i, j]
+                        v = 0.5 * (P[i, j] + P[j, i])
+                        P[i, j] = v
+                        P[j, i] = v
         for i in range(n):
             xs[k, i] = x[i]
             Pd[k, i] = P[i, i]

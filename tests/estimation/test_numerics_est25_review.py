@@ -2,7 +2,6 @@
 magnitudes (epoch clocks, badly scaled covariances, long runs)."""
 
 import numpy as np
-import pytest
 from hypothesis import given, settings, strategies as st
 
 from terrain.estimation.runner import (SensorSamples, make_grid, sample_steps,
@@ -74,15 +73,6 @@ def test_a_rim_spike_widens_the_speed_bound_over_exactly_hold_s_on_any_clock(t0,
 
 # -- the compiled loop's Joseph form ---------------------------------------------------------
 
-@pytest.mark.xfail(strict=True, reason="the compiled loop (terrain.estimation.fast) evaluates "
-                   "the Joseph form as AP + (K R - AP H^T) K^T with AP = P - K H P: equal to "
-                   "(I - K H) P (I - K H)^T + K R K^T in exact arithmetic, but numerically the "
-                   "short form (I - K H) P plus a correction that is zero for the optimal gain, "
-                   "so it loses PSD to round-off as the short form does (-3e-6 of the largest "
-                   "eigenvalue here, the NumPy reference -3e-12); evaluating it with A = I - K H "
-                   "formed first changes the compiled loop's arithmetic and cost per step (the "
-                   "documented 3.2 us/step of docs/estimation_validation.md): left to the "
-                   "maintainers")
 def test_one_precise_update_on_the_compiled_loop_stays_positive_semi_definite():
     # the draws of test_ekf_review's test of the NumPy correct() (states of scales
     # 1e-3 .. 1e4, rows with noise down to 1e-14), on the skid-steer kernel's two wheel rows
