@@ -12,6 +12,7 @@ with the Coriolis signs of eqs. 4.33-4.34 (the ones the thesis prints in ch. 4; 
 Measurements (eq. 4.28, ``accel="coriolis"``)::
 
     omega_i = v_w,i / ((1 - s_i) r)      v_w,i from eq. 4.20           (eq. 4.22)
+              (v_w,i (1 + s_i) / r where the ground is the faster, eq. 7.2)
     ax = -yaw_rate v_by,  ay = yaw_rate v_bx                           (eqs. 4.26-4.27)
     wz = yaw_rate,  yaw_imu = yaw,  delta_i = delta_i
 
@@ -20,8 +21,13 @@ Measurements (eq. 4.28, ``accel="coriolis"``)::
 with them the velocity, and therefore the slip, becomes observable, which the ch. 4.3 sensor
 set does not provide (wheel speed alone cannot tell velocity from slip).
 
-The slip factor ``1 / (1 - s)`` is evaluated with ``1 - s`` floored at 0.05 (slip 0.95) so a
-diverging estimate cannot divide by zero; the Jacobian is exact inside that range.
+The slip states are SAE slips, the simulator's truth slip: the wheel rows are
+:func:`terrain.terramechanics.slip.rim_speed_from_slip` (eq. 4.22 as printed where the rim is
+the faster, ``v_w (1 + s)`` of eq. 7.2 braking, the sign of ``v_w`` taken into account in
+reverse; eq. 4.22 for every sign read a braking slip of -0.2 as -0.25 and flipped the sign in
+reverse). A slip state beyond ``|s| = 0.95`` is read clipped there (no division by zero, no
+rim turning against the ground), with no slip column in the Jacobian; the Jacobian is exact
+inside that range.
 
 Default tuning: P0 of eq. 4.38, R of eq. 4.40, Q of eq. 4.41, per filter step. Eq. 4.38
 prints 13 values for 14 states and eq. 4.40 prints 11 for 10 measurements; the text (ch.

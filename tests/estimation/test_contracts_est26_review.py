@@ -102,14 +102,6 @@ def test_accelerometer_rows_read_the_simulators_gravity(pitch, accel):
     assert hx[6] == pytest.approx(float(g_z[0]), rel=1e-14)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "SlipStateModel (ch. 4.3) predicts omega_i = v_w / ((1 - s_i) R_w) (eq. 4.22, the "
-    "traction form) for every sign, so its slip_1..3 state is the SAE slip of the truth it "
-    "is scored against (docs/estimation_validation.md, 'Slip inside the state') only driving "
-    "forward in traction: braking at SAE -0.2 it reads -0.25, in reverse the sign flips. "
-    "Calling terrain.terramechanics.slip.rim_speed_from_slip (as the skid-steer slip model "
-    "does) moves that table's figures (the published design diverges to slips of 24, where "
-    "the SAE inverse has no rim speed): left to the maintainers"))
 @settings(max_examples=20, deadline=None)
 @example(v=1.0, s=-0.2)
 @example(v=-1.0, s=0.2)

@@ -536,8 +536,11 @@ def test_agrimaro_default_tuning_is_eqs_6_9_6_13_6_14_entry_by_entry_in_model_or
 
 @pytest.mark.parametrize("slip", [0.9, 0.93, 0.945, -0.9])
 def test_slip_state_wheel_rows_keep_their_slip_column_just_above_the_floor(slip):
-    """Eq. 4.22 ``omega = v_w / ((1 - s) R_w)``: ``d omega / d s = omega / (1 - s)`` for every
-    ``1 - s`` above the 0.05 floor (s < 0.95), including s in (0.9, 0.95)."""
+    """Eq. 4.22 ``omega = v_w / ((1 - s) R_w)`` in traction: ``d omega / d s = omega / (1 -
+    s)`` for every ``1 - s`` above the 0.05 floor (s < 0.95), including s in (0.9, 0.95);
+    braking (s = -0.9, wheels rolling forward) the SAE rim speed ``v_w (1 + s)`` of eq. 7.2,
+    ``d omega / d s = omega / (1 + s)`` (this test pinned eq. 4.22 there, ``omega / (1 - s)``,
+    until the slip states became the SAE slip of their rim speed: est26)."""
     model = SlipStateModel()
     x = np.zeros(model.n_states)
     x[3], x[4], x[5] = 1.2, 0.1, 0.3                 # v_bx, v_by, yaw_rate
@@ -545,7 +548,8 @@ def test_slip_state_wheel_rows_keep_their_slip_column_just_above_the_floor(slip)
     x[11:14] = 0.2, -0.1, 0.4                        # steering angles
     hx, H = model.observation(x)
     for i in range(3):
-        assert H[i, 8 + i] == pytest.approx(hx[i] / (1.0 - slip), rel=1e-12)
+        assert hx[i] > 0.0                           # every wheel rolling forward
+        assert H[i, 8 + i] == pytest.approx(hx[i] / (1.0 - abs(slip)), rel=1e-12)
     np.testing.assert_allclose(H, finite_difference_jacobian(model.h, x, eps=1e-8), rtol=1e-5,
                                atol=1e-6)
 

@@ -108,7 +108,9 @@ def _edge_states(model, rng):
     speed and yaw rate), wheels steered to +-90 deg (and 180 deg), heading at +-pi and past
     it. Kept away from the deliberate kinks, which a finite difference straddles: the
     skid-steer ln(chi) column below its yaw-rate threshold, a floored or clipped slip, a
-    slip-augmented side's ground speed of exactly 0."""
+    slip-augmented side's ground speed of exactly 0, and a slip-in-state wheel at rest with a
+    slip (the SAE rim speed, ``v (1 + s)`` or ``v / (1 - s)`` by the sign of ``v s``, turns
+    its slope at ``v = 0``: at rest those slips are 0)."""
     names = model.state_names
     skid = "log_icr_chi" in names
     out = []
@@ -120,7 +122,7 @@ def _edge_states(model, rng):
             elif name.startswith("delta"):
                 x[j] = rng.choice([np.pi / 2, -np.pi / 2, np.pi, 0.0])
             elif name.startswith("slip"):
-                x[j] = rng.uniform(-0.5, 0.5)
+                x[j] = rng.uniform(-0.5, 0.5) if skid or k % 2 else 0.0
             elif name in ("v_bx", "v_by") and k % 2 == 0:
                 x[j] = 0.3 if skid else 0.0               # at rest (skid: off the kink)
             elif name == "yaw_rate":

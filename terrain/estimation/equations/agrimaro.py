@@ -20,8 +20,11 @@ Measurement rows (:func:`observation_into`, eq. 6.6)::
     ax, ay    = a_bx, a_by;  wz = yaw_rate + b_g;  yaw_imu = yaw;  delta_i = delta_i
     v_cx, v_cy = v_bx - yaw_rate d_y, v_by + yaw_rate d_x;  yaw_rate_c = yaw_rate;  yaw_c = yaw
 
-and the ch. 4.3 rows (:func:`slip_state_observation_into`, eq. 4.28): ``omega_i = v_w,i /
-((1 - s_i) R_w)`` (eq. 4.22, ``1 - s_i`` floored at ``slip_floor``), accelerometer
+and the ch. 4.3 rows (:func:`slip_state_observation_into`, eq. 4.28): ``omega_i R_w`` the rim
+speed of SAE slip ``s_i`` at ground speed ``v_w,i``
+(:func:`terrain.terramechanics.slip.rim_speed_from_slip`: ``v_w,i / (1 - s_i)``, eq. 4.22,
+where the rim is the faster, ``v_w,i (1 + s_i)``, eq. 7.2, where the ground is, the sign of
+``v_w,i`` taken into account; ``|s_i|`` clipped at ``1 - slip_floor``), accelerometer
 ``-yaw_rate v_by, yaw_rate v_bx`` (eqs. 4.26-4.27) or the acceleration states, optional camera
 rows of eq. 6.6. The vehicle kinematics are not written here: the wheel speed of eq. 4.20 is
 :func:`terrain.vehicles.swerve.rim_speed_row` and the camera velocity
@@ -50,6 +53,7 @@ from numba.extending import register_jitable
 
 from terrain.errors import ShapeError
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
+from terrain.terramechanics.slip import rim_speed_from_slip
 from terrain.vehicles.swerve import (AGRIMARO, AgriMaRoParams, point_velocity, rim_speed_row,
                                      wheel_rim_speed)
 
@@ -80,8 +84,9 @@ class AgriMaRoEquationParams:
     camera : bool
         Slip-in-state design only: append the four camera rows of eq. 6.6.
     slip_floor : float
-        Slip-in-state design only: ``1 - s`` is floored at this value in ``1 / (1 - s)``
-        (a diverging estimate cannot divide by zero), dimensionless.
+        Slip-in-state design only: the wheel rows read a slip state clipped to ``|s| <= 1 -
+        slip_floor`` (a diverging estimate cannot divide by zero in ``1 / (1 - s)`` nor
+        turn the rim against the ground), dimensionless.
     """
 
     coriolis_sign: float = 1.0
@@ -108,7 +113,7 @@ class AgriMaRoEquationParams:
         accel_direct, camera : bool
             Slip-in-state design options (see the class).
         slip_floor : float
-            Floor of ``1 - s``, dimensionless.
+            ``1 -`` the largest ``|s|`` the wheel rows read, dimensionless.
 
         Returns
         -------
@@ -279,7 +284,7 @@ def slip_state_observation_into(x, p, hx, H):
     hx : ndarray, shape (m,)
         Output, m = 10 or 14 (with the camera rows).
     H : ndarray, shape (m, 14)
-        Output: ``dh/dx``; the slip column of a wheel is 0 where ``1 - s`` is floored.
+        Output: ``dh/dx``; the slip column of a wheel is 0 where its slip is clipped.
     """
     yaw, vx, vy, w, ax, ay = x[2], x[3], x[4], x[5], x[6], x[7]
     m = hx.shape[0]
@@ -288,15 +293,19 @@ def slip_state_observation_into(x, p, hx, H):
             H[i, j] = 0.0
     rw, floor = p[7], p[12]
     for i in range(3):
-        one_s = 1.0 - x[8 + i]
-        k = 1.0 / (max(one_s, floor) * rw)                       # eq. 4.22
+        # eq. 4.22 where the rim is the faster, eq. 7.2 where the ground is (the SAE slip of
+        # the simulator's truth, braking and in reverse too), |s| clipped at 1 - floor
+        s = x[8 + i]
+        clipped = abs(s) > 1.0 - floor
         vw, dvx, dvy, dw, dd = rim_speed_row(vx, vy, w, p[1 + 2 * i], p[2 + 2 * i], x[11 + i])
-        hx[i] = vw * k
+        rim, k, d_slip = rim_speed_from_slip(vw, min(max(s, floor - 1.0), 1.0 - floor))
+        k /= rw
+        hx[i] = rim / rw
         H[i, 3] = dvx * k
         H[i, 4] = dvy * k
         H[i, 5] = dw * k
         H[i, 11 + i] = dd * k
-        H[i, 8 + i] = vw * k / one_s if one_s > floor else 0.0
+        H[i, 8 + i] = 0.0 if clipped else d_slip / rw
     if p[10] == 0.0:                                             # eqs. 4.26-4.27
         hx[3] = -w * vy
         hx[4] = w * vx
