@@ -166,3 +166,28 @@ def test_skid_steer_windows_mirror_backward_and_batching(seed, n_win):
     x1, _, nis1 = skid_steer_on_windows(W[-1:], 100.0)
     np.testing.assert_array_equal(x1[0], x[-1])
     np.testing.assert_array_equal(nis1[0], nis[-1])
+
+
+@pytest.mark.parametrize("t0", [0.0, 3.7, 1e5, 1.7e9])
+@pytest.mark.parametrize("rate", [100.0, 30.0, 400.0])
+def test_default_rate_read_off_a_clock_keeps_every_sample_on_its_step(t0, rate):
+    """``clock_rate_hz`` of evenly spaced samples on a clock starting anywhere (an epoch
+    clock included): a grid at that rate from the first sample to a time between two
+    samples (another stream's end) puts sample k on step k (the median step alone drifted
+    past the placement slack at 1e5 s, 100 Hz, and at 1.7e9 s, 100 and 30 Hz)."""
+    from terrain.estimation.runner import clock_rate_hz, make_grid, sample_steps
+    t = t0 + np.arange(3000) / rate
+    grid = make_grid(float(t[0]), float(t[-1]) - 0.3 / rate, clock_rate_hz(t))
+    assert grid.size == t.size - 1
+    np.testing.assert_array_equal(sample_steps(grid, t[:-1]), np.arange(t.size - 1))
+
+
+def test_default_rate_of_a_jittered_clock_is_its_median_step():
+    """A clock whose steps vary by more than its rounding (jitter, a gap) keeps the rate of
+    its median step: the snap corrects the clock's rounding, nothing else."""
+    from terrain.estimation.runner import clock_rate_hz
+    rng = np.random.default_rng(3)
+    dt = 0.01 + 1e-5 * rng.standard_normal(999)
+    dt[500] = 0.5                                          # a gap
+    t = np.concatenate([[0.0], np.cumsum(dt)])
+    assert clock_rate_hz(t) == 1.0 / np.median(np.diff(t))
