@@ -227,7 +227,8 @@ class OnlineSensors:
             Plant state after a physics step.
         """
         s, t = self.settings, snap.t_s
-        dt = 0.0 if self._t_prev is None else t - self._t_prev
+        first = self._t_prev is None
+        dt = 0.0 if first else t - self._t_prev
         self._t_prev = t
         if self._t0 is None:
             self._t0 = t
@@ -241,9 +242,13 @@ class OnlineSensors:
             c.rows.append((t, a[0], a[1], wz))
             self.imu_full_rows.append((t, *self._full_imu(snap, a, wz)))
         # encoders: count rate per physics step when the speed quantum is 0, then the motor
-        # driver's first-order filter, sampled at the wheel rate (as the batch model)
+        # driver's first-order filter, sampled at the wheel rate (as the batch model,
+        # encoder_count_rate: at the first step no count has changed yet, so its rate is 0
+        # however fast the wheel already turns, and the filter starts there)
         motor = self.vehicle.motor
-        if s.speed_quantum_m_s == 0 and dt > 0:
+        if s.speed_quantum_m_s == 0 and first:
+            raw = np.zeros_like(np.asarray(snap.omega, dtype=float))
+        elif s.speed_quantum_m_s == 0 and dt > 0:
             self._angle = self._angle + 0.5 * dt * (snap.omega + self._omega_prev)
             q = motor.encoder_quantum_rad
             counts = np.floor(self._angle / q)

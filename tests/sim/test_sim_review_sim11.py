@@ -63,11 +63,6 @@ def test_husky_quanta_are_read_from_the_sensor_settings_not_the_vehicle():
     assert np.abs(vel).max() > 0.5
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "OnlineSensors.record reports the true wheel speed at its first step (no count rate "
-    "without a previous step) where encoder_count_rate reports 0 (its first difference is "
-    "0); not fixed as it moves the AgriMaRo's closed-loop runs (their wheels turn at most "
-    "0.013 rad/s on the first step of a scenario, so the gap is small there)"))
 def test_online_encoder_matches_the_batch_model_from_a_moving_start():
     """The closed loop's encoder is documented as the batch model's (count rate per physics
     step, then the driver's filter). From a wheel already at 3 rad/s on the first step the

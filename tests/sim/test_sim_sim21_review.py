@@ -9,7 +9,6 @@ one sample at a time and over the whole run. On the same physics steps they must
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -43,13 +42,6 @@ def test_online_encoder_is_the_batch_model_for_a_wheel_starting_at_rest(rates):
     np.testing.assert_allclose(online, batch, rtol=0, atol=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "sim21: on the first physics step (no time step yet, dt 0) the online encoder reports "
-    "the true wheel speed and starts its driver filter there, while the batch model's count "
-    "rate of that step is 0 and its filter starts at 0; a run whose first step already turns "
-    "the wheels (omega[0] = dt / tau * command) reports a different speed to the controller "
-    "than the logged stream over the filter's 0.12 s. Not fixed: it would change the "
-    "AgriMaRo closed-loop runs of docs/control_validation.md"))
 def test_online_encoder_is_the_batch_model_for_a_wheel_already_turning_on_the_first_step():
     omega = np.column_stack([np.linspace(3.0, 12.0, 101)] * 3)
     online, batch = _online_and_batch(omega)

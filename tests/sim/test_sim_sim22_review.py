@@ -58,10 +58,6 @@ def test_load_transfer_flags_exactly_the_loads_the_floor_raised():
     np.testing.assert_array_equal(floored_contacts(*args, *mixed), [True, False, False, False])
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "OnlineSensors.record takes the true wheel speed at the first step (dt = 0) instead of "
-    "the encoder's count rate (0: no count yet), as encoder_count_rate does for the batch "
-    "model; fixing it moves the AgriMaRo closed-loop figures of docs/control_validation.md"))
 def test_online_encoder_reports_the_batch_count_rate_from_the_first_step():
     """With a speed quantum of 0 (the AgriMaRo) both sensor models report the encoder's
     count rate per physics step through the driver's filter (SensorSettings: "in the batch

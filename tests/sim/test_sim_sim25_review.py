@@ -218,12 +218,6 @@ def test_a_mixed_agrimaro_run_reads_back_with_the_simulators_values(tmp_path):
 
 # --- the closed loop's encoder and the logged omega stream ---------------------------------
 
-@pytest.mark.xfail(strict=True, reason="two paths, two answers at the run's first step: the "
-                   "batch encoder (encoder_count_rate) reports 0 there (no earlier count), the "
-                   "online one (OnlineSensors.record, dt = 0) the true wheel speed, and the "
-                   "driver filter carries the difference (0.0086 rad/s on this run) over the "
-                   "next samples; aligning either side moves simulated runs or closed-loop "
-                   "figures (docs/control_validation.md), so it is reported, not fixed")
 def test_the_online_encoder_reports_the_logged_omega_stream_from_the_first_sample(
         agrimaro_turning):
     """The AgriMaRo's encoder (speed quantum 0: count rate, driver filter) at 50 Hz on a
