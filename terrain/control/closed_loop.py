@@ -284,7 +284,8 @@ class TractionLoop:
         # the traction step's safe output, which clears the memory
         out = self.controller.step(targets, obs.omega_low_level, est.omega_meas_rad_s,
                                    est.v_long_m_s, self.a_filtered, est.chassis_speed_m_s,
-                                   dt if dt < 0.0 else max(dt, 1e-6), est.age_s)
+                                   dt if dt < 0.0 else max(dt, 1e-6),
+                                   self._estimate_age(obs.t_s, est.age_s))
         correction = out.correction_rad_s
         ff_terrain = (targets.terrain if targets.terrain in TERRAIN_NAMES
                       else self._fallback_basis)
@@ -325,19 +326,42 @@ class TractionLoop:
                          "fallback": targets is self.table.fallback})
         return correction.copy() if self.apply else np.zeros_like(correction)
 
+    def _estimate_age(self, t_s: float, age_s):
+        """The estimator's ``age_s`` taken as exactly 0 or the controller's
+        ``max_input_age_s`` where it lies beyond either by the clocks' rounding alone
+        (:func:`terrain.run.clock_slack` at the call's time), as :meth:`_decision_age`
+        reads a decision's age: on an epoch clock an estimate whose reference sample was
+        taken at the call, stamped by another rounding, read -2.4e-7 s and got the safe
+        output (which clears the controller's memory). Anything else (None, NaN, an age
+        beyond the slack) is passed on as it is, for the traction step to judge."""
+        if age_s is None or isinstance(age_s, bool) \
+                or not isinstance(age_s, (int, float, np.floating, np.integer)):
+            return age_s
+        age = float(age_s)
+        if not math.isfinite(age):
+            return age_s
+        return _snapped_age(age, max(abs(t_s), abs(t_s - age)),
+                            self.controller.config.max_input_age_s)
+
     def _decision_age(self, t_s: float, t_decided_s: float) -> float:
         """``t_s - t_decided_s``, s, taken as exactly 0 or ``max_decision_age_s`` where it
         lies beyond either by the clocks' rounding alone (:func:`terrain.run.clock_slack`):
         on a 50 Hz call grid a decision 200 calls old read 4.000000000000001 s, one stamped
         at the call by another rounding a negative age, and both got the fallback."""
-        age = t_s - t_decided_s
-        if not math.isfinite(age):   # a stamp at +-inf or NaN: no age, the fallback
-            return age
-        slack = float(clock_slack(max(abs(t_s), abs(t_decided_s))))
-        cap = self.table.config.max_decision_age_s
-        if cap < age <= cap + slack:
-            return cap
-        return 0.0 if -slack <= age < 0.0 else age
+        return _snapped_age(t_s - t_decided_s, max(abs(t_s), abs(t_decided_s)),
+                            self.table.config.max_decision_age_s)
+
+
+def _snapped_age(age_s: float, t_s: float, cap_s: float) -> float:
+    """An age, s, taken as exactly 0 or ``cap_s`` where it lies beyond either by no more
+    than the clocks' rounding near ``t_s`` (:func:`terrain.run.clock_slack`); NaN and
+    infinities are returned as they are."""
+    if not math.isfinite(age_s):
+        return age_s
+    slack = float(clock_slack(t_s))
+    if cap_s < age_s <= cap_s + slack:
+        return cap_s
+    return 0.0 if -slack <= age_s < 0.0 else age_s
 
 
 def loop_metrics(sim: Simulation, loop: TractionLoop, bus_voltage_v: float,

@@ -239,13 +239,6 @@ class _StampedAtTheCall(_Constant):
         return est._replace(age_s=float(obs.t_s - np.nextafter(obs.t_s, np.inf)))
 
 
-@pytest.mark.xfail(strict=True, reason="ctl22: the loop hands the estimator's age to the "
-                   "traction step as it is; an age of -1 ulp (2.4e-7 s on an epoch clock) "
-                   "is distrusted as a negative age: the safe output, which clears the "
-                   "controller's memory. Snapping it within terrain.run.clock_slack (as "
-                   "_decision_age does for the decision's age) also snaps ages within 1 ns "
-                   "on the simulated clock from 0, which may move the figures of "
-                   "docs/control_validation.md (unverified): left for a decision")
 def test_an_estimate_stamped_at_the_call_by_another_rounding_is_fresh():
     """TractionLoop: an estimate's age of -2.4e-7 s on an epoch clock is the clocks'
     rounding of a sample taken at the call, not a clock error; the decision's age is already
