@@ -53,7 +53,7 @@ from terrain.control.traction import config_for_vehicle
 from terrain.errors import ConfigError, config_seed, duplicated
 from terrain.io.jsonfile import replace_text
 from terrain.models.registry import ModelConfig, make_model
-from terrain.serving.model import load_stream_model
+from terrain.serving.model import load_stream_model, training_steps_s
 from terrain.serving.pyfunc import runs_to_model_input, save_model
 from terrain.sim.digest import simulator_digest, source_digest
 from terrain.sim.simulate import SimConfig, simulate
@@ -170,7 +170,9 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     model_dir : pathlib.Path
         MLflow model directory (``terrain train --model-out`` format; metadata ``vehicle``,
         ``dataset = sim``, ``seeds``, ``scenarios``, ``controlled_runs``,
-        ``training_windows``).
+        ``training_windows``, and ``channel_steps_s``, the training runs' sample step of
+        each channel, :func:`terrain.serving.model.training_steps_s`, as ``terrain train``
+        saves it).
     info : dict
         The settings (``controller``: the controlled runs' configuration, None without
         them), the training windows in all, per class and from controlled runs
@@ -249,7 +251,10 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
                    {"dataset": "sim", "vehicle": vehicle, "seeds": settings["seeds"],
                     "scenarios": list(scenarios), "signals": signals,
                     "controlled_runs": bool(controlled_runs),
-                    "training_windows": int(len(ws))},
+                    "training_windows": int(len(ws)),
+                    # as terrain train's: a live stream's first steps are judged against
+                    # the training runs' step of each channel
+                    "channel_steps_s": training_steps_s(runs, ws.channels)},
                    input_example=example.head(CLASSIFIER_WINDOW.n_samples))
         _move_in(tmp, model_dir)
     finally:

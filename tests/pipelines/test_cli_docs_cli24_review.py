@@ -138,11 +138,6 @@ def test_convert_writes_where_slip_table_reads_and_its_help_says_so(tmp_path, mo
         assert "TERRAIN_DATA_DIR" in text, (sub, text)
 
 
-@pytest.mark.xfail(strict=True, reason="the live-sim classifier of control-sim / control-grid "
-                   "is saved without the training runs' channel_steps_s that terrain train "
-                   "and fit_stream_model give a model, so the loop's streaming service judges "
-                   "a stream's first steps by their own; adding it changes the cached "
-                   "classifier's key and may move the control_validation figures")
 def test_the_live_sim_classifier_keeps_the_training_steps_a_train_model_keeps(tmp_path):
     from pipelines.control_classifier import sim_classifier
     from terrain.serving import load_stream_model

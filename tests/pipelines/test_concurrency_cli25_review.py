@@ -39,6 +39,8 @@ def _cheap_training(monkeypatch, saves):
     monkeypatch.setattr(cc, "source_digest", lambda *a: "code")
     monkeypatch.setattr(cc, "make_windows", lambda runs, signals, cfg: _Windows())
     monkeypatch.setattr(cc, "make_model", lambda *a: _Pipe())
+    # the saved model's channel_steps_s (the training runs' steps): _Run has no streams
+    monkeypatch.setattr(cc, "training_steps_s", lambda runs, channels: {"wz": 0.01})
     monkeypatch.setattr(cc, "runs_to_model_input",
                         lambda *a: [pd.DataFrame({"wz": np.zeros(200)})])
 
