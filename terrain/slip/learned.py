@@ -17,13 +17,13 @@ scikit-learn's own path, kept as the reference.
 
 from __future__ import annotations
 
+import hashlib
 import warnings
 
 import numpy as np
 import pandas as pd
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.ensemble import HistGradientBoostingRegressor
-from sklearn.model_selection import GroupKFold
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
@@ -114,10 +114,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             (m/s).
         groups : array-like, shape (n_windows,), optional
             Run of each window (grouped calibration folds); None: no calibration
-            (:meth:`predict_std` then returns NaN). The folds are scikit-learn's
-            ``GroupKFold``: runs of equal window counts are dealt to them in the sorted
-            order of their ids, so renaming runs (not reordering rows) can change the
-            calibrated std, never the predictions.
+            (:meth:`predict_std` then returns NaN). The ids only group the windows: the
+            folds are dealt from the runs' data (:func:`calibration_folds`), so renaming
+            runs changes neither the predictions nor the std.
 
         Returns
         -------
@@ -223,7 +222,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                                              random_state=self.random_state)
 
     def _calibrate(self, X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> None:
-        folds = list(GroupKFold(self.calibration_folds).split(X, groups=groups))
+        folds = calibration_folds(X, y, groups, self.calibration_folds)
         oof = np.full_like(y, np.nan)
         for tr, te in folds:
             for i in range(2):
@@ -406,6 +405,66 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                              f"window first), got {y.shape}")
         err = np.abs(pred[:, :2] - y[:, :2])
         return -float(np.median(err))
+
+
+def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
+                      n_folds: int) -> list[tuple[np.ndarray, np.ndarray]]:
+    """Run-grouped folds of the std calibration, dealt from the runs' data, not their ids.
+
+    As scikit-learn's ``GroupKFold`` (no run on both sides; the runs with the most windows
+    are dealt first, each to the fold with the fewest windows so far, the lowest-numbered
+    among equals), but runs of equal window counts come in the order of their median
+    ``|slip|`` (both sides), not of their sorted ids: the folds, hence the calibrated std,
+    do not depend on how the runs are named, and consecutive runs of that order go to
+    different folds, so every fold spans the slip levels of the training set (firm ground
+    to spinning wheels) rather than the ones a naming scheme happens to put together.
+    Runs with the same median are ordered by a digest of their sorted features and
+    targets (only runs whose sorted values are all equal, in practice copies of one
+    another, keep the order of their ids). Invariant to the row order, the feature column
+    order and a swap of the sides.
+
+    Parameters
+    ----------
+    X : ndarray, shape (n_windows, n_features)
+        Window features.
+    y : ndarray, shape (n_windows, 2)
+        ``slip_1, slip_2`` targets (dimensionless).
+    groups : ndarray, shape (n_windows,)
+        Run of each window (no NaN or None: :meth:`SlipRegressor.fit` refuses them).
+    n_folds : int
+        Folds, >= 2 and at most the number of runs.
+
+    Returns
+    -------
+    list of (ndarray, ndarray)
+        ``(train, test)`` window indices per fold, each ascending (as scikit-learn's
+        ``split``).
+
+    Raises
+    ------
+    ConfigError
+        ``n_folds`` below 2 or above the number of runs.
+    """
+    runs, run_of = np.unique(groups, return_inverse=True)
+    run_of = run_of.ravel()
+    if not 2 <= n_folds <= len(runs):
+        raise ConfigError(f"{n_folds} calibration folds need 2 to {len(runs)} (the runs)")
+    keys = []
+    for k in range(len(runs)):
+        rows = run_of == k
+        slip, feats = np.asarray(y, float)[rows], np.asarray(X, float)[rows]
+        digest = hashlib.sha256(np.sort(slip, axis=None).tobytes()
+                                + np.sort(feats, axis=None).tobytes()).hexdigest()
+        keys.append((-int(rows.sum()), float(np.median(np.abs(slip))), digest))
+    fold_of_run = np.zeros(len(runs), dtype=int)
+    load = np.zeros(n_folds, dtype=int)
+    for k in sorted(range(len(runs)), key=keys.__getitem__):
+        fold = int(np.argmin(load))
+        fold_of_run[k] = fold
+        load[fold] -= keys[k][0]
+    fold_of = fold_of_run[run_of]
+    return [(np.flatnonzero(fold_of != f), np.flatnonzero(fold_of == f))
+            for f in range(n_folds)]
 
 
 def _text_columns(X) -> np.ndarray | None:

@@ -206,11 +206,10 @@ def test_learned_run_ids_change_no_prediction():
     assert np.array_equal(_fit(X, y, kept).predict_std(X), m.predict_std(X))
 
 
-@pytest.mark.xfail(strict=True, reason="GroupKFold deals runs of equal window counts to the "
-                   "calibration folds in the sorted order of their ids, so renaming runs "
-                   "moves the calibrated std (here by ~0.03 at a std ~0.05); making it id-"
-                   "free would move the std_calibration figures of terrain slip-fit")
 def test_learned_std_independent_of_run_ids():
+    """The calibration folds are dealt from the runs' data: GroupKFold dealt runs of equal
+    window counts in the sorted order of their ids, so renaming runs moved the calibrated
+    std (here by ~0.03 at a std ~0.05)."""
     X, y, groups = _learned_data()
     m = _fit(X, y, groups)
     renamed = np.array(["z", "a", "m", "b", "y", "c"])[groups]
