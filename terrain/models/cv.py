@@ -663,6 +663,33 @@ def inference_ms_per_window(estimator, X: np.ndarray, n_windows: int) -> float:
     return 1e3 * float(np.median(times))
 
 
+def member_probabilities(proba) -> np.ndarray:
+    """A classifier's class probabilities in float64, each row divided by its own sum.
+
+    Members whose probabilities are float32 (MiniRocket's logistic regression on float32
+    features) hand out rows summing to 1 within ~1e-7 only; averaged or scored in float64
+    (an ensemble, a cross-validation frame), that is outside scikit-learn's tolerance
+    (the square root of float64's eps), and ``log_loss`` warns "The y_prob values do not sum
+    to one". Renormalised in float64, the rows sum to 1 within a few float64 eps; a row
+    that already does moves by as much, and the ranking of a row's classes is kept. A row
+    summing to 0 (no probability at all) is left as it is.
+
+    Parameters
+    ----------
+    proba : array-like
+        ``(n_windows, n_classes)`` non-negative class probabilities (``predict_proba``).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(n_windows, n_classes)`` float64, a new array.
+    """
+    out = np.array(proba, dtype=np.float64)
+    total = out.sum(axis=1, keepdims=True)
+    np.divide(out, total, out=out, where=total > 0)
+    return out
+
+
 def _fold(estimator, X_fit, y_fit, groups_fit, fit_rows, X, test, classes, search,
           time_inference):
     """Fit on rows ``fit_rows`` of ``X_fit``, predict rows ``test`` of ``X``; (predictions,
@@ -681,6 +708,7 @@ def _fold(estimator, X_fit, y_fit, groups_fit, fit_rows, X, test, classes, searc
         except AttributeError:  # e.g. an SVC without probability estimates
             raw = None
         if raw is not None:
+            raw = member_probabilities(raw)
             proba = np.zeros((len(test), len(classes)))
             for j, c in enumerate(est.classes_):
                 proba[:, classes.index(str(c))] = raw[:, j]

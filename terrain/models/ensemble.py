@@ -25,7 +25,8 @@ from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import ConfigError, duplicated, holds_booleans, listed
-from terrain.models.cv import class_keeping_split, fit_with_groups, restored_on_failure
+from terrain.models.cv import (class_keeping_split, fit_with_groups, member_probabilities,
+                               restored_on_failure)
 
 
 def normalised_weights(weights, n_members: int) -> np.ndarray:
@@ -127,9 +128,10 @@ def aligned_proba(estimator, X, classes: np.ndarray) -> np.ndarray:
     Returns
     -------
     numpy.ndarray
-        ``(n_windows, n_classes)``.
+        ``(n_windows, n_classes)`` float64, each row of the member's probabilities divided
+        by its sum (:func:`~terrain.models.cv.member_probabilities`).
     """
-    proba = estimator.predict_proba(X)
+    proba = member_probabilities(estimator.predict_proba(X))
     out = np.zeros((proba.shape[0], len(classes)))
     out[:, class_columns(estimator.classes_, classes)] = proba
     return out
@@ -310,7 +312,11 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
         Returns
         -------
         numpy.ndarray
-            ``(n_windows, n_classes)``, columns in the order of ``classes_``.
+            ``(n_windows, n_classes)``, columns in the order of ``classes_``; each member's
+            rows are divided by their sum in float64 first
+            (:func:`~terrain.models.cv.member_probabilities`: a float32 member such as
+            MiniRocket sums to 1 within ~1e-7 only), so the rows sum to 1 within float64
+            rounding.
         """
         check_is_fitted(self, "estimators_")
         columns = getattr(self, "columns_", None)
@@ -318,7 +324,7 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             columns = [class_columns(est.classes_, self.classes_) for est in self.estimators_]
         out = None
         for w, est, cols in zip(self.weights_, self.estimators_, columns):
-            proba = est.predict_proba(X)
+            proba = member_probabilities(est.predict_proba(X))  # a float32 member's rows
             if out is None:
                 out = np.zeros((proba.shape[0], len(self.classes_)))
             out[:, cols] += w * proba
