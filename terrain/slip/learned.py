@@ -209,7 +209,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         if groups is not None and self.calibration_folds >= 2:
             n_groups = len(np.unique(groups))
             if n_groups >= self.calibration_folds:
-                self._calibrate(X, y[:, :2], groups)
+                self._calibrate(X, y, groups)
             else:   # the model has no std: said, not left to a NaN downstream
                 warnings.warn(f"slip model std not calibrated: {n_groups} training run(s) "
                               f"for {self.calibration_folds} calibration folds; predict_std "
@@ -221,8 +221,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                                              min_samples_leaf=50, early_stopping=False,
                                              random_state=self.random_state)
 
-    def _calibrate(self, X: np.ndarray, y: np.ndarray, groups: np.ndarray) -> None:
-        folds = calibration_folds(X, y, groups, self.calibration_folds)
+    def _calibrate(self, X: np.ndarray, targets: np.ndarray, groups: np.ndarray) -> None:
+        folds = calibration_folds(X, targets, groups, self.calibration_folds)
+        y = targets[:, :2]
         oof = np.full_like(y, np.nan)
         for tr, te in folds:
             for i in range(2):
@@ -414,21 +415,28 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     As scikit-learn's ``GroupKFold`` (no run on both sides; the runs with the most windows
     are dealt first, each to the fold with the fewest windows so far, the lowest-numbered
     among equals), but runs of equal window counts come in the order of their median
-    ``|slip|`` (both sides), not of their sorted ids: the folds, hence the calibrated std,
-    do not depend on how the runs are named, and consecutive runs of that order go to
-    different folds, so every fold spans the slip levels of the training set (firm ground
-    to spinning wheels) rather than the ones a naming scheme happens to put together.
-    Runs with the same median are ordered by a digest of their sorted features and
-    targets (only runs whose sorted values are all equal, in practice copies of one
-    another, keep the order of their ids). Invariant to the row order, the feature column
-    order and a swap of the sides.
+    ``|slip|`` (both sides), then of a digest of their sorted targets (all four), then of one
+    of their sorted features, never of their ids: the folds, hence the calibrated std, do not
+    depend on how the runs are named (only runs equal in all of that, copies of one another,
+    keep the order of their ids). Runs with identical targets (one trajectory under other
+    sensor noise: the seeds of a scripted scenario, whose truth the seed does not change) go
+    to the fold holding the fewest of them (then the lightest), so that while there are
+    folds enough each is calibrated by a model that saw the trajectory, as on a held-out
+    seed. ``GroupKFold`` did the same by the
+    accident of ids that sort such runs next to each other (``.../orchard/0``,
+    ``.../orchard/1``); dealt in another order, a scripted trajectory whose runs all sat in
+    one fold had out-of-fold residuals of an unseen trajectory and a std to match (20 times
+    the error of a held-out seed on ASPHALT). Consecutive runs of that order go to different
+    folds, so every fold spans the slip levels of the training set. Invariant to the row
+    order, the feature column order and a swap of the sides.
 
     Parameters
     ----------
     X : ndarray, shape (n_windows, n_features)
         Window features.
-    y : ndarray, shape (n_windows, 2)
-        ``slip_1, slip_2`` targets (dimensionless).
+    y : ndarray, shape (n_windows, n_targets)
+        Targets of :meth:`SlipRegressor.fit`, ``slip_1, slip_2`` (dimensionless) first
+        (NaN allowed after them: ``chi``).
     groups : ndarray, shape (n_windows,)
         Run of each window (no NaN or None: :meth:`SlipRegressor.fit` refuses them).
     n_folds : int
@@ -449,19 +457,21 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     run_of = run_of.ravel()
     if not 2 <= n_folds <= len(runs):
         raise ConfigError(f"{n_folds} calibration folds need 2 to {len(runs)} (the runs)")
+    X, y = np.asarray(X, dtype=float), np.asarray(y, dtype=float)
     keys = []
     for k in range(len(runs)):
         rows = run_of == k
-        slip, feats = np.asarray(y, float)[rows], np.asarray(X, float)[rows]
-        digest = hashlib.sha256(np.sort(slip, axis=None).tobytes()
-                                + np.sort(feats, axis=None).tobytes()).hexdigest()
-        keys.append((-int(rows.sum()), float(np.median(np.abs(slip))), digest))
+        keys.append((-int(rows.sum()), float(np.median(np.abs(y[rows, :2]))),
+                     hashlib.sha256(np.sort(y[rows], axis=None).tobytes()).hexdigest(),
+                     hashlib.sha256(np.sort(X[rows], axis=None).tobytes()).hexdigest()))
     fold_of_run = np.zeros(len(runs), dtype=int)
     load = np.zeros(n_folds, dtype=int)
+    holds: list[dict] = [{} for _ in range(n_folds)]    # runs per target digest, per fold
     for k in sorted(range(len(runs)), key=keys.__getitem__):
-        fold = int(np.argmin(load))
+        fold = min(range(n_folds), key=lambda f: (holds[f].get(keys[k][2], 0), load[f], f))
         fold_of_run[k] = fold
         load[fold] -= keys[k][0]
+        holds[fold][keys[k][2]] = holds[fold].get(keys[k][2], 0) + 1
     fold_of = fold_of_run[run_of]
     return [(np.flatnonzero(fold_of != f), np.flatnonzero(fold_of == f))
             for f in range(n_folds)]

@@ -373,3 +373,41 @@ def test_fit_predict_and_leave_one_out_take_targets_as_a_nested_list():
     for call in (lambda y: fit_predict(_Recorder, X, y, ~test, test),
                  lambda y: leave_one_out(_Recorder, X, y, groups, ~test, test)):
         np.testing.assert_array_equal(call(Y.tolist()), call(Y))
+
+
+def test_calibration_folds_put_the_seeds_of_one_trajectory_apart_whatever_their_names():
+    """Runs with identical targets (one scripted trajectory under other sensor noise) go to
+    different calibration folds, as GroupKFold put them only because their ids sorted next
+    to each other; the folds are the same sets of windows under any renaming or row
+    order."""
+    from terrain.slip.learned import calibration_folds
+
+    rng = np.random.default_rng(4)
+    n_traj, per_run = 6, 10
+    truth = [np.column_stack([rng.normal(0.05 * k, 0.01, per_run),
+                              rng.normal(0.05 * k, 0.01, per_run),
+                              np.full(per_run, np.nan), rng.normal(size=per_run)])
+             for k in range(n_traj)]
+    # two seeds each, after two longer runs that leave the folds unequal (30, 25, 0 windows)
+    y = np.vstack([truth[k] for k in range(n_traj) for _ in range(2)]
+                  + [rng.normal(size=(30, 4)), rng.normal(size=(25, 4))])
+    X = rng.normal(size=(len(y), 3))
+    run = np.concatenate([np.repeat(np.arange(2 * n_traj), per_run),
+                          np.full(30, 2 * n_traj), np.full(25, 2 * n_traj + 1)])
+    names = np.array([f"{'ab'[s]}{k}" for k in range(n_traj) for s in range(2)]
+                     + ["long", "longer"])[run]
+
+    def as_sets(folds, rows):
+        return sorted(tuple(sorted(rows[te])) for _, te in folds)
+
+    folds = calibration_folds(X, y, names, 3)
+    fold_of = {}
+    for f, (_, te) in enumerate(folds):
+        for r in np.unique(run[te]):
+            fold_of[r] = f
+    assert all(fold_of[2 * k] != fold_of[2 * k + 1] for k in range(n_traj))
+    rows = np.arange(len(y))
+    perm = rng.permutation(len(y))
+    renamed = np.array([f"z{rng.integers(1000)}_{i}" for i in range(2 * n_traj + 2)])[run]
+    assert as_sets(calibration_folds(X[perm], y[perm], renamed[perm], 3), rows[perm]) == \
+        as_sets(folds, rows)
