@@ -38,9 +38,12 @@ def test_inputs_hold_the_slip_they_are_built_from(script):
     assert x["omega"].shape == (500, 3) and x["a"].shape == (500, 3)
     r = script["WHEEL_RADIUS_M"]
     slip = np.clip(x["slip"], -0.5, 0.5)
-    # SAE driving slip: (omega r - v) / (omega r), so omega r = v / (1 - slip)
-    np.testing.assert_allclose(1.0 - x["v_long"] / (x["omega"] * r), slip, rtol=1e-9,
-                               atol=1e-12)
+    # SAE slip, both branches: (omega r - v) / (omega r) driving, (omega r - v) / v braking
+    # (this test pinned omega r = v / (1 - slip) for every slip, the driving branch alone)
+    assert (slip < 0).any() and (slip > 0).any()
+    rim = x["omega"] * r
+    sae = (rim - x["v_long"]) / np.maximum(np.abs(rim), np.abs(x["v_long"]))
+    np.testing.assert_allclose(sae, slip, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(x["omega_ll"][:, 0] * r, x["chassis"])
     assert x["chassis"].min() > 0.1      # never standing: accelerate, cruise, brake
 
