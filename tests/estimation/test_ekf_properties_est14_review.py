@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, assume, given, settings
+from hypothesis import HealthCheck, assume, example, given, settings
 from hypothesis import strategies as st
 
 from terrain.errors import EstimationError
@@ -592,6 +592,7 @@ def test_projection_releases_a_bound_that_a_correlated_state_is_dragged_away_fro
 
 @FAST
 @given(seed=st.integers(0, 2**32 - 1), n=st.integers(1, 4))
+@example(seed=13423, n=4)       # the old active set cycled (4 sets) and clipped: 13.0 for 11.2
 def test_projection_is_the_nearest_point_of_the_box_in_the_covariance_metric(seed, n):
     """Against every candidate active set (each state free, at its lower or at its upper
     bound): no feasible point of the box is nearer to x in the P^-1 metric."""
