@@ -33,7 +33,7 @@ import pandas as pd
 from terrain.audit.frames import (MANOEUVRES, AuditFrame, FrameSettings, check_same_bandwidth,
                                   prepare_frame)
 from terrain.audit.replay import ReplaySettings, replay_run
-from terrain.audit.selection import (MAX_BOOTSTRAP, MIN_BOOTSTRAP, has_spread,
+from terrain.audit.selection import (MAX_BOOTSTRAP, MIN_BOOTSTRAP, has_spread, keyed_rng,
                                      stratified_resamples)
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, DataFormatError, config_integer
@@ -257,8 +257,10 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
         gain_hi`` (gain = ``1 - rmse_new / rmse_ref``, NaN where ``rmse_ref`` is 0; the
         interval NaN where one run holds every sample, or one run per terrain in the
         ``pooled`` rows: resampling says nothing there; the ``pooled`` rows resample runs
-        within each terrain; runs are resampled in run-id order, so the order in which
-        they are listed does not move the interval). A signal and scope without any sample
+        within each terrain; runs are resampled in run-id order, each cell from a stream
+        of its own (:func:`~terrain.audit.selection.keyed_rng` of the seed, terrain,
+        signal and scope), so neither the order in which they are listed nor the other
+        cells of the table move the interval). A signal and scope without any sample
         (e.g. ``stop`` on runs that never stop) gets no row; ``n_runs`` counts the runs with
         samples in it.
 
@@ -274,7 +276,6 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
         (run, sig, scope), k = next((key, k) for key, k in counts.items() if k > 1)
         raise DataFormatError(f"gain_table: run {run} is listed {k} times for signal {sig}, "
                               f"scope {scope}: give one row per run, signal and scope")
-    rng = np.random.default_rng(settings.seed)
     # the resamples draw row positions: in run-id order (stable, each run's rows kept in
     # theirs), the same runs listed in another order get the same interval
     per_run = per_run.sort_values("run_id", kind="stable")
@@ -290,6 +291,9 @@ def gain_table(per_run: pd.DataFrame, settings: PhysicsComparisonSettings,
             a, b = sub.sse_ref.to_numpy(float), sub.sse_new.to_numpy(float)
             r_ref, r_new = np.sqrt(a.sum() / n.sum()), np.sqrt(b.sum() / n.sum())
             # the pooled rows resample runs within each terrain (one stratum elsewhere)
+            # each cell its own stream (keyed_rng): its interval does not move with the
+            # other cells of the table nor with the order they come in
+            rng = keyed_rng(settings.seed, terrain, sig, scope)
             idx = stratified_resamples(sub.terrain.to_numpy(), rng, settings.n_bootstrap)
             ra = np.sqrt(a[idx].sum(1) / n[idx].sum(1))
             rb = np.sqrt(b[idx].sum(1) / n[idx].sum(1))

@@ -39,6 +39,7 @@ is held out) predicts with the model without that candidate.
 
 from __future__ import annotations
 
+import hashlib
 import numbers
 from dataclasses import dataclass, field
 from typing import Any, Callable, Mapping, Sequence
@@ -503,6 +504,34 @@ def unit_errors(units: Units, group: str, params: Sequence[GroupParams],
     return np.asarray(out_s, dtype=float), np.asarray(out_n)
 
 
+def keyed_rng(seed: int, *key: object) -> np.random.Generator:
+    """A generator of its own for one draw of a table, from the seed and the draw's name.
+
+    A table whose cells draw from one generator in the order they come gives each cell
+    resamples that depend on which cells came before it (another signal in the table, the
+    rows listed in another order, more resamples elsewhere move an interval). Each cell
+    draws here from a stream of its own: numpy's :class:`~numpy.random.SeedSequence` of
+    ``seed`` and a SHA-256 digest of the key's text (stable across processes, unlike the
+    salted :func:`hash` of a string).
+
+    Parameters
+    ----------
+    seed : int
+        The table's seed (>= 0).
+    *key : object
+        The cell's name (e.g. terrain, signal, scope); each part is written with
+        :func:`repr`, so ``("a", "b")`` and ``("a b",)`` are different cells.
+
+    Returns
+    -------
+    numpy.random.Generator
+        The same stream for the same seed and key, in any process.
+    """
+    digest = hashlib.sha256(repr(tuple(key)).encode()).digest()
+    words = [int.from_bytes(digest[i:i + 4], "little") for i in range(0, 16, 4)]
+    return np.random.default_rng(np.random.SeedSequence([int(seed), *words]))
+
+
 def stratified_resamples(strata: np.ndarray, rng: np.random.Generator, n_boot: int
                          ) -> np.ndarray:
     """Bootstrap resamples of units drawn with replacement within each stratum.
@@ -897,7 +926,9 @@ def select_group(units: Units, group: str, terrain: str,
     # the bootstraps draw unit positions: in run-id order (segments of a run by their start),
     # the same runs listed in another order (a caller's own list) get the same intervals
     units = sorted(units, key=_unit_key)
-    rng = np.random.default_rng(settings.seed)
+    # separate streams: the gain resamples of the selection, and each effect's parameter
+    # refits (one stream drawn for both, n_bootstrap moved every parameter interval)
+    rng = keyed_rng(settings.seed, "gain")
     all_frames = [f for u in units for f in u]
     base_all, n_all = unit_errors(units, group, [GROUP_MODELS[group].no_effect()
                                                  for _ in units])
@@ -906,7 +937,8 @@ def select_group(units: Units, group: str, terrain: str,
     final_all, _ = unit_errors(units, group, path.heldout_params)
     n_tot = max(int(n_all.sum()), 1)
     results = tuple(effect_result(name, terrain, group, units, path, final_params,
-                                  effect_settings, rng, settings.n_param_bootstrap, references)
+                                  effect_settings, keyed_rng(settings.seed, "param", name),
+                                  settings.n_param_bootstrap, references)
                     for name in GROUPS[group])
     return GroupResult(
         group=group, terrain=terrain, selected=path.selected, effects=results,

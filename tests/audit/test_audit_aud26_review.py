@@ -74,11 +74,6 @@ def test_the_physics_gain_table_is_the_same_in_two_calls_and_moves_with_its_seed
     np.testing.assert_array_equal(other.gain.to_numpy(), gain_table(per_run, s).gain)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "gain_table draws every cell's resamples from one generator in the order the cells "
-    "come: a run's rows listed in another signal order, or another signal in the table, "
-    "moves a cell's interval (all/cur [-0.013, 0.281] alone [+0.001, 0.305]); a per-cell "
-    "stream would move the documented intervals of docs/audit_physics_v2_*.md"))
 def test_a_physics_gain_interval_does_not_depend_on_the_other_cells_of_the_table():
     per_run = _per_run()
     s = PhysicsComparisonSettings(n_bootstrap=200)
@@ -133,11 +128,6 @@ def test_a_replay_on_an_epoch_clock_is_the_replay_near_zero():
     np.testing.assert_allclose(far.v_x, near.v_x, rtol=0, atol=1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "select_group draws the gain resamples and the parameter refits from one generator: "
-    "the parameter interval of gyro_bias (n_param_bootstrap 20 both times) moves from "
-    "[0.00979, 0.01023] to [0.00961, 0.01024] when only n_bootstrap goes from 100 to 200; "
-    "separate streams would move the documented intervals of docs/audit_report*.md"))
 def test_a_parameter_interval_does_not_depend_on_the_number_of_gain_resamples():
     from audit_helpers import synthetic_frame
     from terrain.audit.selection import SelectionSettings, select_group
