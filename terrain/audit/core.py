@@ -28,8 +28,7 @@ import pandas as pd
 from terrain.audit.effects import (EffectSettings, YawParams, effect_params,
                                    predict_current, predict_yaw)
 from terrain.audit.frames import (CURVE, MANOEUVRES, SPIN, STRAIGHT, AuditFrame,
-                                  FrameSettings, check_same_bandwidth, prepare_frame,
-                                  scored_span)
+                                  FrameSettings, check_same_bandwidth, prepare_frame)
 from terrain.audit.replay import ReplaySettings, replay_run, require_replayable
 from terrain.audit.selection import (EffectResult, GroupResult, SelectionSettings, loro,
                                      make_units, select_group, unit_errors, unscored_group)
@@ -633,11 +632,12 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
     pandas.DataFrame
         Columns ``terrain, factor, lateral_friction, replay_chi, measured_chi, n_runs``;
         ``replay_chi`` is :func:`terrain.vehicles.icr.icr_expansion_factor` of the replayed
-        yaw rate and ``(v_R - v_L) / B`` over the turning samples of every chosen run at
-        least ``settings.frames.edge_s`` from either end of its record, the audit frames'
-        scored span (inf when the replayed robot does not turn; NaN when no run of
-        ``terrain`` turns, or none inside that span). ``attrs["skipped"]``: run id ->
-        why a run of ``terrain`` with an IMU could not be replayed
+        yaw rate and ``(v_R - v_L) / B`` over the samples the measured chi is taken on
+        (``chi_pooled`` of :func:`measured_facts`): the curve and spin samples scored
+        against the IMU in each chosen run's audit frame (:func:`prepare_frames`; inf when
+        the replayed robot does not turn; NaN when no run of ``terrain`` turns, or none on
+        such a sample). ``attrs["skipped"]``: run id ->
+        why a run of ``terrain`` with an IMU could not be replayed or framed
         (:func:`~terrain.audit.replay.require_replayable`; left out, as the audit skips it).
 
     Raises
@@ -670,17 +670,27 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
         _, x = skid_steer_forward(w["vel_l"].to_numpy(), w["vel_r"].to_numpy(),
                                   get_vehicle(run.vehicle).track_m)
         if np.sum(np.abs(x) >= settings.frames.turn_rad_s) >= 20:
-            chosen.append(run)
+            # the samples of the measured chi (measured_facts' chi_pooled): the curve and
+            # spin samples scored against the IMU in the run's audit frame (the catalogue
+            # replay, as prepare_frames makes it); the turning samples of the wheel
+            # record's scored span counted stopped samples and samples outside the IMU
+            # record on the replayed side only
+            try:
+                rep = replay_run(run, settings.replay)
+                frame = prepare_frame(run, rep, settings.frames, settings.lag)
+            except (ConfigError, DataFormatError) as exc:
+                skipped[run.run_id] = str(exc)
+                continue
+            m = frame.score_imu & np.isin(frame.manoeuvre, (CURVE, SPIN))
+            chosen.append((run, rep, m, frame.commanded_yaw_rate[m]))
     rows = []
     for factor in factors:
         ter = replace(base, lateral_friction=float(base.lateral_friction * factor))
         commanded, replayed = [np.empty(0)], [np.empty(0)]
-        for run in chosen:
-            rep = replay_run(run, settings.replay, terrain=ter)
-            _, x = skid_steer_forward(rep.vel_l, rep.vel_r, rep.track_m)
-            turning = np.abs(x) >= settings.frames.turn_rad_s
-            m = turning & scored_span(rep.t_s, settings.frames)
-            commanded.append(x[m])
+        for run, rep, m, x in chosen:
+            if ter != base:
+                rep = replay_run(run, settings.replay, terrain=ter)
+            commanded.append(x)
             replayed.append(rep.yaw_rate[m])
         commanded, replayed = np.concatenate(commanded), np.concatenate(replayed)
         chi = icr_expansion_factor(replayed, commanded) if commanded.size else np.nan

@@ -176,14 +176,6 @@ def test_the_replay_and_the_frame_filter_at_the_runs_own_stream_rates(asphalt_ru
     assert rates[0] == run.rate_hz("imu")                 # wz, ax, ay
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "lateral_friction_sweep takes the replayed chi over |x| >= turn_rad_s within the wheel "
-    "record's scored span, while the measured chi beside it (facts chi_pooled) is taken "
-    "over the curve and spin samples scored against the IMU: stopped samples with |x| >= "
-    "turn_rad_s and samples outside the IMU record count on one side only. On the shipped "
-    "BorealTC runs the replayed chi at factor 1 moves by up to 0.12 % (SNOW 20.052 -> "
-    "20.048, ICE 1.0366 -> 1.0353): the one sample set would move the what-if table of "
-    "docs/audit_report.md"))
 def test_the_sweeps_replayed_chi_is_taken_on_the_samples_of_the_measured_chi(asphalt_run):
     """Two paths, one answer: at factor 1 the sweep replays the catalogue terrain, so its
     chi is the replay's chi on the samples the measured chi (chi_pooled) is taken on."""
