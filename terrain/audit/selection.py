@@ -926,9 +926,10 @@ def select_group(units: Units, group: str, terrain: str,
     # the bootstraps draw unit positions: in run-id order (segments of a run by their start),
     # the same runs listed in another order (a caller's own list) get the same intervals
     units = sorted(units, key=_unit_key)
-    # separate streams: the gain resamples of the selection, and each effect's parameter
-    # refits (one stream drawn for both, n_bootstrap moved every parameter interval)
-    rng = keyed_rng(settings.seed, "gain")
+    # separate streams: the gain resamples of the selection (the seed's own generator), and
+    # each effect's parameter refits (keyed_rng; one stream drawn for both, n_bootstrap
+    # moved every parameter interval)
+    rng = np.random.default_rng(settings.seed)
     all_frames = [f for u in units for f in u]
     base_all, n_all = unit_errors(units, group, [GROUP_MODELS[group].no_effect()
                                                  for _ in units])
