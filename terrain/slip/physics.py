@@ -507,7 +507,9 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
         ``{"SNOW": 1.0}`` for a known ground.
     current_a : ndarray, shape (n, m)
         Motor current magnitudes as logged (``cur_l, cur_r``), A; the sign is taken from the
-        wheel speed (driving assumption: a braking side reads as driving).
+        wheel speed (driving assumption: a braking side reads as driving); a side at rest
+        (rim speed exactly 0) holds against either direction, so there both signs weigh half
+        (a mixture, like the terrains': its spread is in the std and the interval).
     rim_speed_m_s : ndarray, shape (n, m)
         Wheel rim speeds (``vel_l, vel_r``), m/s.
     pitch_rad : ndarray, shape (n,)
@@ -568,9 +570,13 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     probs = _normalise(terrain_probabilities, n, settings.min_probability)
     radius = vehicle.contact_geometry().wheel_radius_m
     omega = rim / radius
-    signed = np.where(rim < 0, -cur, cur)
-    torque = wheel_torque_from_current(vehicle.motor, signed, omega)
-    dtorque_di = wheel_torque_from_current(vehicle.motor, signed + 1.0, omega) - torque
+    # a side at rest (rim speed 0) holds against either direction: its reported current
+    # magnitude has no sign, so both signs weigh half there (a forward one alone made a
+    # reversing start the mirror of no forward one)
+    at_rest = rim == 0.0
+    signs = [(np.where(rim < 0, -cur, cur), np.where(at_rest, 0.5, 1.0))]
+    if at_rest.any():
+        signs.append((np.where(at_rest, -cur, cur), np.where(at_rest, 0.5, 0.0)))
     k = settings.coverage_sigma
     sd_i = settings.current_std_a / np.sqrt(np.broadcast_to(n_avg, (n,)))[:, None]
     sd_within = within_window_current_std(current_within_std_a, settings.current_std_a,
@@ -587,33 +593,40 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     # mu + rolling (= torque / d torque / d mu)
     load_rel_std = normal_load_factor(np.asarray(pitch_rad, dtype=float),
                                       pitch_std_rad, pitch_prior)[1][:, None]
-    for name, p in probs.items():
-        terrain = get_terrain(name)
-        mu, dmu_dt, rolling = traction_from_torque(vehicle, terrain, torque, rim, pitch_rad,
-                                                   wheel_accel_rad_s2, pitch_std_rad)
-        sd_mu = np.sqrt((dmu_dt * dtorque_di * sd_i) ** 2
-                        + (dmu_dt * torque * settings.efficiency_rel_std) ** 2
-                        + (rolling * settings.hysteresis_rel_std) ** 2
-                        + (dmu_dt * dtorque_di * sd_within) ** 2
-                        + ((mu + rolling) * load_rel_std) ** 2)
-        est = slip_from_traction(terrain.curve, mu)
-        lo, hi = _slip_interval(terrain.curve, mu - k * sd_mu, mu + k * sd_mu)
-        sd = (hi - lo) / (2.0 * k)
-        w = p[:, None]
-        mean += w * est.slip
-        second += w * est.slip ** 2
-        within += w * sd ** 2
-        lower += w * lo
-        upper += w * hi
-        mu_w += w * mu
-        p_row = np.asarray(p, dtype=float)
-        # a tie flags where any of the tied curves saturates (the first listed won before:
-        # the flag followed the order of the classes)
-        tied = p_row == best_p
-        saturated[tied] |= est.saturated[tied]
-        better = p_row > best_p
-        saturated[better] = est.saturated[better]
-        best_p[better] = p_row[better]
+    for flipped, (signed, share) in enumerate(signs):
+        torque = wheel_torque_from_current(vehicle.motor, signed, omega)
+        dtorque_di = wheel_torque_from_current(vehicle.motor, signed + 1.0, omega) - torque
+        for name, p in probs.items():
+            terrain = get_terrain(name)
+            mu, dmu_dt, rolling = traction_from_torque(vehicle, terrain, torque, rim,
+                                                       pitch_rad, wheel_accel_rad_s2,
+                                                       pitch_std_rad)
+            sd_mu = np.sqrt((dmu_dt * dtorque_di * sd_i) ** 2
+                            + (dmu_dt * torque * settings.efficiency_rel_std) ** 2
+                            + (rolling * settings.hysteresis_rel_std) ** 2
+                            + (dmu_dt * dtorque_di * sd_within) ** 2
+                            + ((mu + rolling) * load_rel_std) ** 2)
+            est = slip_from_traction(terrain.curve, mu)
+            lo, hi = _slip_interval(terrain.curve, mu - k * sd_mu, mu + k * sd_mu)
+            sd = (hi - lo) / (2.0 * k)
+            w = p[:, None] * share
+            mean += w * est.slip
+            second += w * est.slip ** 2
+            within += w * sd ** 2
+            lower += w * lo
+            upper += w * hi
+            mu_w += w * mu
+            p_row = np.asarray(p, dtype=float)
+            if flipped:     # the other sign of a side at rest: the same terrain's flag too
+                saturated |= est.saturated & at_rest & (p_row == best_p)[:, None]
+                continue
+            # a tie flags where any of the tied curves saturates (the first listed won
+            # before: the flag followed the order of the classes)
+            tied = p_row == best_p
+            saturated[tied] |= est.saturated[tied]
+            better = p_row > best_p
+            saturated[better] = est.saturated[better]
+            best_p[better] = p_row[better]
     # law of total variance: within-terrain variance + spread of the terrain-wise slips
     between = np.sqrt(np.maximum(second - mean ** 2, 0.0))
     std = np.sqrt(within + between ** 2)

@@ -164,12 +164,8 @@ def test_the_husky_observer_estimate_of_the_manoeuvre_driven_backwards_is_mirror
     _assert_mirrored("husky", "observer", _observations("husky", 2.0))
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the Husky's fused observer takes a pseudo-measurement at standstill (rim speed 0, a "
-    "current of 0.16 A) whose sign terrain.slip.physics.physics_slip takes as driving "
-    "forward (+0.016) whichever way the robot then drives: a reversing start differs from "
-    "the mirrored forward one by up to 3 mm/s; fixing it moves the Husky's control figures "
-    "of docs/control_validation.md (every run starts with that sample)"))
+# the fused observer's pseudo-measurement at standstill (rim speed 0, a current of 0.16 A)
+# was taken as driving forward (+0.016) whichever way the robot then drove
 def test_the_fused_estimate_of_the_manoeuvre_driven_backwards_is_mirrored():
     _assert_mirrored("husky", "fused", _observations("husky", 2.0))
 

@@ -498,3 +498,20 @@ def test_a_terrain_of_probability_0_001_or_more_enters_the_average_one_below_doe
     np.testing.assert_allclose(mix.slip, 0.99 * a.slip + 0.01 * b.slip)
     low = physics_slip(HUSKY, {"SANDY_LOAM": 0.9995, "SNOW": 0.0005}, cur, rim, np.zeros(1))
     np.testing.assert_allclose(low.slip, a.slip)
+
+
+@pytest.mark.parametrize("terrain", ["ASPHALT", "SANDY_LOAM", "SNOW"])
+def test_a_side_at_rest_weighs_both_signs_of_its_current_half(terrain):
+    """At rim speed 0 the reported current magnitude has no sign (the wheel holds against
+    either direction): the slip is the even mixture of the two signs, the mirror of
+    itself, whose spread and interval cover both (a forward sign alone made a reversing
+    start differ from the mirrored forward one)."""
+    cur = np.array([[2.0, 0.5]])
+    eps = 1e-9
+    ahead = physics_slip(HUSKY, {terrain: 1.0}, cur, np.full((1, 2), eps), np.zeros(1))
+    back = physics_slip(HUSKY, {terrain: 1.0}, cur, np.full((1, 2), -eps), np.zeros(1))
+    rest = physics_slip(HUSKY, {terrain: 1.0}, cur, np.zeros((1, 2)), np.zeros(1))
+    np.testing.assert_allclose(rest.slip, (ahead.slip + back.slip) / 2, atol=1e-6)
+    np.testing.assert_allclose(rest.slip, 0.0, atol=1e-6)      # the two mirror each other
+    assert (rest.std >= np.abs(ahead.slip) - 1e-6).all()
+    assert (rest.lower <= back.lower + 1e-6).all() and (rest.upper >= ahead.upper - 1e-6).all()
