@@ -105,7 +105,9 @@ def test_terrain_stream_replay_decides_as_the_served_model(all_model, unseen_lon
 
 
 @pytest.mark.xfail(strict=True, reason=(
-    "svc22, left alone (would move the streaming figures): the service anchors each "
+    "svc22, left alone (docs/streaming.md, \"One grid per stream\": anchoring once per "
+    "stream passes this but costs 0.914 -> 0.887 on the held-out streams): the service "
+    "anchors each "
     "window's grid at the newest of the streams' first samples read for it "
     "(RingBuffer.since(t - window_s - 2 / rate_hz) keeps the sample just before), so its "
     "phase follows a float tie of that look-back bound with a 100 Hz IMU stamp: every stamp "
