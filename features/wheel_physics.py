@@ -9,7 +9,9 @@ eq. 7.40: ``M_r = mu_lat W L / 4``, independent of the yaw rate once the wheels 
 :func:`terrain.terramechanics.turning_resistance_moment_nm`). With ``v = (v_L + v_R)/2``
 (m/s), ``a = dv/dt`` (m/s^2), the commanded yaw rate ``omega = (v_R - v_L)/B`` (rad/s) and
 the saturating motion indicators ``m_v = tanh(|v| / v0)``, ``m_w = tanh(|omega| / w0)``,
-each window is fitted by ridge least squares to two current balances::
+each window is fitted by ridge least squares (the no-load term ``c0`` unpenalised, as
+scikit-learn's ``Ridge`` leaves its intercept, so a current-sensor offset moves ``c0`` alone)
+to two current balances::
 
     I_L + I_R = c0 + c1 m_v + c2 |a| + c3 m_w + e_sum              (magnitudes)
     I_R - I_L = d0 sgn(omega) m_v + d1 omega + e_diff              (arcs)
@@ -55,26 +57,49 @@ PHYSICS_FEATURES = (
 
 
 @numba.njit(cache=True, nogil=True)
-def _ridge_fit(y, A, ridge, coef):   # pragma: no cover - compiled
+def _ridge_fit(y, A, ridge, intercept, coef):   # pragma: no cover - compiled
     """Ridge least squares ``y ~ A coef`` of one window (``A`` n x k); fills ``coef`` and
-    returns the residual's standard deviation. The normal equations
-    ``(A^T A + ridge n I) coef = A^T y`` are solved by LAPACK as :func:`numpy.linalg.solve`
-    solves them (``ridge > 0`` keeps them regular)."""
+    returns the residual's standard deviation. With ``intercept`` column 0 of ``A`` is the
+    constant 1 and its coefficient is left unpenalised, as scikit-learn's ``Ridge`` with
+    ``fit_intercept`` does: the other columns and ``y`` are centred on their window means,
+    ``(Ac^T Ac + ridge n I) b = Ac^T yc`` is solved for them and the intercept recovered as
+    ``mean(y) - mean(A) b`` (an offset of ``y`` moves the intercept alone). Without it the
+    normal equations ``(A^T A + ridge n I) coef = A^T y`` of all columns are solved. LAPACK
+    solves them as :func:`numpy.linalg.solve` does (``ridge > 0`` keeps them regular)."""
     n, k = A.shape
-    G = np.empty((k, k))
-    rhs = np.empty(k)
-    for i in range(k):
-        for j in range(k):
+    j0 = 1 if intercept else 0
+    m = k - j0
+    mean_a = np.zeros(k)
+    mean_y = 0.0
+    if intercept:
+        for s in range(n):
+            mean_y += y[s]
+            for i in range(j0, k):
+                mean_a[i] += A[s, i]
+        mean_y /= n
+        for i in range(j0, k):
+            mean_a[i] /= n
+    G = np.empty((m, m))
+    rhs = np.empty(m)
+    for i in range(m):
+        for j in range(m):
             g = 0.0
             for s in range(n):
-                g += A[s, i] * A[s, j]
+                g += (A[s, j0 + i] - mean_a[j0 + i]) * (A[s, j0 + j] - mean_a[j0 + j])
             G[i, j] = g
         G[i, i] += ridge * n
         r = 0.0
         for s in range(n):
-            r += A[s, i] * y[s]
+            r += (A[s, j0 + i] - mean_a[j0 + i]) * (y[s] - mean_y)
         rhs[i] = r
-    coef[:] = np.linalg.solve(G, rhs)
+    b = np.linalg.solve(G, rhs)
+    if intercept:
+        c0 = mean_y
+        for i in range(m):
+            c0 -= mean_a[j0 + i] * b[i]
+        coef[0] = c0
+    for i in range(m):
+        coef[j0 + i] = b[i]
     mean = 0.0
     resid = np.empty(n)
     for s in range(n):
@@ -130,8 +155,8 @@ def _physics_kernel(vel_l, vel_r, cur_l, cur_r, dt, track_m, v0, w0, ridge,
             sum_aa += abs(acc[s])
             n_moving += abs(v[s]) > v0
             n_turning += abs(om[s]) > w0
-        e_sum = _ridge_fit(i_sum, A4, ridge, c)
-        e_diff = _ridge_fit(i_diff, A2, ridge, d)
+        e_sum = _ridge_fit(i_sum, A4, ridge, True, c)
+        e_diff = _ridge_fit(i_diff, A2, ridge, False, d)
         # mean current while turning / while driving straight, shrunk to the window mean
         # when the window holds (almost) none of that motion (1 sample's weight)
         mean_all = sum_i / n
@@ -179,8 +204,10 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
     :func:`numpy.gradient`'s (central differences inside, one-sided at the ends), the
     quantiles :func:`numpy.quantile`'s (``linear``), the spreads population standard
     deviations; the fits solve the ridge normal equations ``(A^T A + ridge n I) b = A^T y``
-    with :func:`numpy.linalg.solve` (the equality with a NumPy formulation is tested,
-    ``tests/serving/test_wheel_physics.py``).
+    with :func:`numpy.linalg.solve`, the current sum's on regressors and current centred on
+    their window means with the no-load term ``c0 = mean(I_L + I_R) - mean(A) b`` recovered
+    unpenalised (scikit-learn's ``Ridge(fit_intercept=True)``; the equality with a NumPy
+    formulation is tested, ``tests/serving/test_wheel_physics.py``).
 
     Parameters
     ----------
@@ -200,7 +227,7 @@ def physics_features(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray,
         (``turning__fraction`` counts ``|omega| > w0``), rad/s (> 0).
     ridge : float
         Ridge weight of the fits (per sample, squared regressor units; > 0, so that a
-        window without motion still has one solution).
+        window without motion still has one solution); the no-load term is not penalised.
 
     Returns
     -------

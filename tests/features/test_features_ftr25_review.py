@@ -212,11 +212,6 @@ def test_freshly_compiled_statistics_equal_the_cached_kernel():
     np.testing.assert_array_equal(a, b)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the ridge of the wheel-physics current balance also penalises the no-load term c0, so "
-    "a current offset is not absorbed by c0 alone: +10 A on both sides moves "
-    "cur_sum__turn_a by 0.1 A and cur_sum__inertia_a_s2_per_m by 1e-3; an unpenalised "
-    "intercept would move the documented wheel-physics results, so it is left as it is"))
 def test_wheel_physics_current_offset_is_absorbed_by_the_no_load_term():
     # I_L + I_R = c0 + c1 m_v + c2 |a| + c3 m_w: a constant added to both currents (a bias
     # of the current sensors) belongs to c0; the load coefficients and residuals keep
@@ -232,3 +227,5 @@ def test_wheel_physics_current_offset_is_absorbed_by_the_no_load_term():
     for name in ("cur_sum__inertia_a_s2_per_m", "cur_sum__turn_a", "cur_sum__resid_std_a"):
         j = PHYSICS_FEATURES.index(name)
         np.testing.assert_allclose(b[:, j], a[:, j], rtol=1e-9, atol=1e-9, err_msg=name)
+    j = PHYSICS_FEATURES.index("cur_sum__noload_a")
+    np.testing.assert_allclose(b[:, j], a[:, j] + 20.0, rtol=1e-12)

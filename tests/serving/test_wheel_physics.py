@@ -45,10 +45,18 @@ def _numpy_physics_features(vel_l, vel_r, cur_l, cur_r, rate_hz, track_m=0.5708,
                             v0=0.05, w0=0.1, ridge=1e-3):
     """The features written with NumPy's own functions (the formulation the compiled kernel
     of ``physics_features`` must reproduce)."""
-    def ridge_fit(y, A):
+    def ridge_fit(y, A, intercept=False):
+        # with an intercept (column 0 of ones) it is unpenalised: centre, solve, recover
         n = A.shape[1]
-        G = np.einsum("wsi,wsj->wij", A, A) + ridge * n * np.eye(A.shape[2])[None]
-        coef = np.linalg.solve(G, np.einsum("wsi,ws->wi", A, y)[..., None])[..., 0]
+        X, yc = A, y
+        if intercept:
+            X = A[..., 1:] - A[..., 1:].mean(axis=1, keepdims=True)
+            yc = y - y.mean(axis=1, keepdims=True)
+        G = np.einsum("wsi,wsj->wij", X, X) + ridge * n * np.eye(X.shape[2])[None]
+        coef = np.linalg.solve(G, np.einsum("wsi,ws->wi", X, yc)[..., None])[..., 0]
+        if intercept:
+            c0 = y.mean(axis=1) - np.einsum("wi,wi->w", A[..., 1:].mean(axis=1), coef)
+            coef = np.concatenate([c0[:, None], coef], axis=1)
         return coef, (y - np.einsum("wsi,wi->ws", A, coef)).std(axis=1)
 
     v, omega = 0.5 * (vel_l + vel_r), (vel_r - vel_l) / track_m
@@ -56,7 +64,8 @@ def _numpy_physics_features(vel_l, vel_r, cur_l, cur_r, rate_hz, track_m=0.5708,
     acc = np.gradient(v, 1.0 / rate_hz, axis=1) if v.shape[1] > 1 else np.zeros_like(v)
     abs_v, abs_o = np.abs(v), np.abs(omega)
     m_v, m_w = np.tanh(abs_v / v0), np.tanh(abs_o / w0)
-    c, e_sum = ridge_fit(i_sum, np.stack([np.ones_like(v), m_v, np.abs(acc), m_w], axis=-1))
+    c, e_sum = ridge_fit(i_sum, np.stack([np.ones_like(v), m_v, np.abs(acc), m_w], axis=-1),
+                         intercept=True)
     d, e_diff = ridge_fit(i_diff, np.stack([np.sign(omega) * m_v, omega], axis=-1))
     w_turn, w_straight = m_w, m_v * (1.0 - m_w)
     mean_all = i_sum.mean(1)
