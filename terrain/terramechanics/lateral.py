@@ -526,6 +526,11 @@ class SoilContact:
         Contact length l at those loads, m.
     sinkage_grid_m : ndarray, shape (k,)
         Sinkage z at those loads, m.
+    shear_grid_n : ndarray, shape (k,)
+        The Mohr-Coulomb part ``c A + N tan phi`` of ``strength_grid_n`` at those loads
+        (:func:`shear_strength_n`), N: 0 in the unloaded row as the strength, so that
+        between two rows the interpolated shear never exceeds the interpolated strength
+        (the bulldozing left, ``S - shear``, is the interpolation of rows >= 0).
     """
 
     soil: SoilParams
@@ -535,6 +540,7 @@ class SoilContact:
     strength_grid_n: np.ndarray
     length_grid_m: np.ndarray
     sinkage_grid_m: np.ndarray
+    shear_grid_n: np.ndarray
 
 
 def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
@@ -582,7 +588,8 @@ def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
     for i, w in enumerate(loads):
         z[i], length[i] = wheel_sinkage_m(w, width_m, footprint_length_m, wheel_radius_m, soil)
     strength = lateral_strength_n(soil, width_m, loads, z, length)
-    return SoilContact(soil, width_m, wheel_radius_m, loads, strength, length, z)
+    shear = np.where(loads > 0, shear_strength_n(soil, width_m, loads, length), 0.0)
+    return SoilContact(soil, width_m, wheel_radius_m, loads, strength, length, z, shear)
 
 
 def lateral_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarray,
@@ -898,7 +905,10 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
         Longitudinal shear displacement of each patch over K_x, ``|s| L / K_x``: the lateral
         shear strength ``c b l + N tan phi`` (:func:`shear_strength_n`; not the bulldozing)
         is shared with the longitudinal traction by :func:`combined_shear_shares` (a soil
-        with :attr:`SoilParams.combined_shear`). None: the lateral shear takes the whole
+        with :attr:`SoilParams.combined_shear`), taken as ``S`` is: interpolated from the
+        table's ``shear_grid_n`` (0 when unloaded, as ``S``), or at the load on a slip-sunk
+        wall; the strength left, bulldozing plus the lateral share of the shear, is never
+        negative and equals ``S`` at share 1. None: the lateral shear takes the whole
         strength.
 
     Returns
@@ -921,7 +931,8 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     """
     check_slide_speed("soil_lateral_force_and_slope", slide_speed_m_s)
     n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
-    if contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None:
+    sunk = contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None
+    if sunk:
         strength, length = slip_sunk_strength_n(contact, n_load,
                                                 np.asarray(slip_ratio, dtype=float))
     else:
@@ -935,8 +946,15 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     if shear_long is not None:
         share_long, share_lat = combined_shear_shares(shear_long, a,
                                                       contact.soil.residual_ratio)
-        shear = shear_strength_n(contact.soil, contact.width_m, n_load, length)
-        strength = strength - np.where(n_load > 0, shear, 0.0) * (1.0 - share_lat)
+        # the shear part of the strength S, taken where S is: at the load on the slip-sunk
+        # wall (both from lateral_strength_n), else from the table as S (0 in its unloaded
+        # row); so S - shear, the bulldozing, is >= 0 and the strength left never negative
+        if sunk:
+            shear = np.where(n_load > 0, shear_strength_n(contact.soil, contact.width_m,
+                                                          n_load, length), 0.0)
+        else:
+            shear = np.interp(n_load, contact.load_grid_n, contact.shear_grid_n)
+        strength = strength - shear * (1.0 - share_lat)
     if contact.soil.rate_weakening_speed_m_s is not None:
         strength = strength * rate_weakening_factor(v, contact.soil)[0]
     g = shear_mobilisation(a, contact.soil.residual_ratio)

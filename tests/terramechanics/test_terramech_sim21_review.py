@@ -10,7 +10,6 @@ wheels at once give, and a wheel carrying more load resists at least as much.
 from __future__ import annotations
 
 import numpy as np
-import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -78,15 +77,11 @@ def test_a_wheel_carrying_more_load_resists_sliding_at_least_as_much(name, loads
     assert np.all(np.diff(np.abs(force)) >= -1e-9)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "sim21: with shear_long (SoilParams.combined_shear) the lateral shear strength "
-    "c b l + N tan phi subtracted for the longitudinal share is computed at the load, while "
-    "the strength it is subtracted from is interpolated from the table whose unloaded row is "
-    "0; below the table's first loaded row (9.5 N on the 600 N table here, 7.8 N on the "
-    "simulator's 490 N Husky table, where the v2 load floor of 5 % of a static load lies) "
-    "the strength left can be negative and "
-    "the force pushes the wheel the way it slides (energy created, slope > 0). Not fixed: "
-    "the combined_shear variants' figures in docs/physics_v2.md were measured with it"))
+# sim21 (fixed 2026-11-30): the shear part subtracted for the longitudinal share was computed
+# at the load (c b l + N tan phi, cohesion whole at any load > 0) while the strength was
+# interpolated from the table (0 in its unloaded row): below the first loaded row (9.5 N on
+# this 600 N table) the strength left was negative and the force pushed the wheel the way it
+# slid. The shear part now comes from the table as the strength does (SoilContact.shear_grid_n)
 def test_with_the_shared_shear_strength_a_lightly_loaded_wheel_still_resists():
     contact = CONTACTS["SANDY_LOAM"]
     load, v_lat, rim = np.array([0.978]), np.array([-0.0536]), np.array([0.955])
@@ -95,3 +90,24 @@ def test_with_the_shared_shear_strength_a_lightly_loaded_wheel_still_resists():
     assert share is not None
     assert np.all(slope <= 0.0)
     assert np.all(force * v_lat <= 0.0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(name=st.sampled_from(sorted(VARIANTS)), loads=_arrays(6, 0.0, 30.0),
+       v=st.floats(-0.5, 0.5, **FLOATS), rim=st.floats(-1.0, 1.0, **FLOATS),
+       a_long=st.floats(0.0, 50.0, **FLOATS))
+def test_the_shared_strength_left_resists_and_is_the_whole_one_without_longitudinal_shear(
+        name, loads, v, rim, a_long):
+    # below and around the table's first loaded row: the shared force never pushes, never
+    # exceeds the whole-strength force, and is that force when the wheel does not slip along
+    contact, n = CONTACTS[name], len(loads)
+    v_lat, rims = np.full(n, v), np.full(n, rim)
+    whole = soil_lateral_force_and_slope(contact, loads, v_lat, rims)[0]
+    shared, slope, _ = soil_lateral_force_and_slope(contact, loads, v_lat, rims,
+                                                    shear_long=np.full(n, a_long))
+    assert np.all(slope <= 0.0)
+    assert np.all(shared * v_lat <= 0.0)
+    assert np.all(np.abs(shared) <= np.abs(whole) + 1e-12)
+    unshared = soil_lateral_force_and_slope(contact, loads, v_lat, rims,
+                                            shear_long=np.zeros(n))[0]
+    np.testing.assert_allclose(unshared, whole, rtol=1e-12, atol=1e-12)
