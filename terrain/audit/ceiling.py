@@ -53,6 +53,7 @@ from sklearn.ensemble import HistGradientBoostingRegressor
 
 from terrain.audit.frames import MANOEUVRES, STOP, AuditFrame
 from terrain.errors import ConfigError, config_integer, config_positive, refuse_missing
+from terrain.run import clock_slack
 from terrain.vehicles import HUSKY, side_speeds
 from terrain.vehicles.icr import inverse_icr_factor
 
@@ -573,7 +574,9 @@ def _forgetting_sums(t: np.ndarray, code: np.ndarray, terms: Sequence[np.ndarray
     """Exponentially forgetting sums of ``terms`` over earlier samples of the same code.
 
     For each sample ``k``: ``sum_j terms[j] exp(-(t_k - lead - t_j) / memory)`` over the
-    samples ``j`` of the same manoeuvre code with ``t_j <= t_k - lead`` (0 where none).
+    samples ``j`` of the same manoeuvre code with ``t_j <= t_k - lead`` within the clock's
+    rounding (:func:`terrain.run.clock_slack`), so a sample exactly ``lead`` earlier on a
+    regular clock is used on any clock's origin (0 where none).
     """
     out = [np.zeros(len(t)) for _ in terms]
     for c in np.unique(code):
@@ -586,8 +589,8 @@ def _forgetting_sums(t: np.ndarray, code: np.ndarray, terms: Sequence[np.ndarray
             acc += [term[j] for term in terms]
             sums[:, n] = acc
         # the sums at t - lead: those of the last sample of this manoeuvre at or before it,
-        # decayed to t - lead
-        avail = np.searchsorted(t[i], t[i] - lead_s, side="right") - 1
+        # decayed to t - lead; "at or before" within the clock's rounding
+        avail = np.searchsorted(t[i], t[i] - lead_s + clock_slack(t[i]), side="right") - 1
         ok = avail >= 0
         src = np.maximum(avail, 0)
         decay = np.exp(-np.maximum(t[i] - lead_s - t[i[src]], 0.0) / memory_s)

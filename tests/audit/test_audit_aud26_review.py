@@ -143,12 +143,6 @@ def test_a_parameter_interval_does_not_depend_on_the_number_of_gain_resamples():
     assert intervals(100) == intervals(200)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the online forecasts use the samples with t_j <= t_k - lead_s; on a regular clock the "
-    "sample exactly lead_s earlier is in or out by the rounding of t_k - lead_s, so the "
-    "forecast moves with the clock's origin (10 Hz, lead 0.7 s: 0.04 A apart at 0 and at "
-    "1.7e9 s); a tolerance would move docs/physics_v2_ceiling*.csv (BorealTC's 6.5 Hz "
-    "clock: 2 313 of 40 208 samples within 1e-6 s of that boundary, not on it)"))
 @pytest.mark.parametrize("signal", ["wz", "cur"])
 def test_an_online_forecast_does_not_depend_on_the_clock_origin(signal):
     from dataclasses import replace
