@@ -570,7 +570,8 @@ def run_audit(runs: Sequence[Run], settings: AuditSettings = AuditSettings(),
             else:
                 def needs(f):
                     return bool(f.has_imu and f.score_imu.any())
-            units, segmented = make_units(fs, min_units, needs, settings.lag)
+            units, segmented = make_units(fs, min_units, needs, settings.lag,
+                                          settings.frames)
             if len(units) < 2:
                 groups[(scope, group)] = unscored_group(
                     group, scope, _unscored_reason(fs, group, needs), len(fs))

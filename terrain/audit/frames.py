@@ -30,7 +30,8 @@ from either end, held outside): the replay starts from rest, and its first sampl
 from __future__ import annotations
 
 import warnings
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
+from typing import Callable
 
 import numpy as np
 
@@ -159,6 +160,11 @@ class AuditFrame:
         evaluation of ``wheel_lag``); empty without IMU.
     score_imu, score_cur : bool masks of the samples scored for IMU and current signals.
     lag : LagTrack
+    imu_raw : shape (m, 3), the IMU's ``wz, ax, ay`` as measured (not low-passed) on
+        ``imu_t_s``: what :func:`split_frame` aligns each segment from; empty for a frame
+        built without it (then a segment keeps the run's aligned channels).
+    imu_rate_hz : float, the IMU's own rate (median step), Hz (0 without ``imu_raw``).
+    imu_gaps : tuple of (start, stop) IMU gaps, s (``run.meta["gaps"]["imu"]``).
     """
 
     run_id: str
@@ -186,6 +192,9 @@ class AuditFrame:
     score_imu: np.ndarray
     score_cur: np.ndarray
     lag: LagTrack
+    imu_raw: np.ndarray = field(default_factory=lambda: np.empty((0, 3)))
+    imu_rate_hz: float = 0.0
+    imu_gaps: tuple = ()
 
     @property
     def n(self) -> int:
@@ -345,7 +354,6 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
     gaps = dict(run.meta.get("gaps", {}) or {})
     score = scored_span(t, settings)
     score_cur = score & ~_in_gaps(t, gaps.get("wheels"))
-    nan = np.full(len(t), np.nan)
     imu = run.streams.get("imu")
     if imu is not None:
         run.require_columns("imu", ("wz", "ax", "ay"))
@@ -356,41 +364,84 @@ def prepare_frame(run: Run, replay: Replay, settings: FrameSettings = FrameSetti
                       f"{MIN_IMU_SAMPLES}, too short to low-pass): audited as a run without "
                       "IMU", DataWarning, stacklevel=2)
         imu = None
+    raw, rate, imu_gaps = np.empty((0, 3)), 0.0, tuple(gaps.get("imu") or ())
+    ti = np.empty(0)
     if imu is not None:
         ti = imu[TIME].to_numpy(dtype=float)
         rate = run.rate_hz("imu")   # the run's own rate (median step)
-        chans = lowpass(imu[["wz", "ax", "ay"]].to_numpy(dtype=float), rate,
-                        settings.imu_cutoff_hz)
-        lag = estimate_lag_track(t, x, ti, chans[:, 0], lag_settings,
-                                 alternative=replay.yaw_rate)
-        t_imu = t - lag.at(t)
-        wz, ax, ay = (np.interp(t_imu, ti, chans[:, j]) for j in range(3))
-        ax_slow = np.interp(t_imu, ti, lowpass(imu["ax"].to_numpy(dtype=float), rate,
-                                               settings.pitch_cutoff_hz, padtype="even"))
-        sim_ax_slow = _slow_within_edges(t, replay.ax, score, settings)
-        has_pitch = (t_imu >= ti[0]) & (t_imu <= ti[-1])
-        pitch = np.where(has_pitch, np.arcsin(np.clip((ax_slow - sim_ax_slow) / G_M_S2,
-                                                      -1.0, 1.0)), 0.0)
-        score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
-                     & (t_imu <= ti[-1] - settings.edge_s)
-                     & (t >= ti[0] + settings.edge_s) & (t <= ti[-1] - settings.edge_s)
-                     & ~_in_gaps(t_imu, gaps.get("imu")) & ~_in_gaps(t, gaps.get("wheels")))
-        imu_t, imu_wz, has_imu = ti, chans[:, 0], True
-    else:
-        lag = LagTrack(np.empty(0), np.empty(0), np.empty(0), 0)
-        wz, ax, ay, pitch = nan, nan.copy(), nan.copy(), np.zeros(len(t))
-        has_pitch = np.zeros(len(t), dtype=bool)
-        imu_t, imu_wz, has_imu = np.empty(0), np.empty(0), False
-        score_imu = np.zeros(len(t), dtype=bool)
+        raw = imu[["wz", "ax", "ay"]].to_numpy(dtype=float)
+    ch = _align_imu(t, x, replay.yaw_rate,
+                    lambda: _slow_within_edges(t, replay.ax, score, settings), score_cur,
+                    ti, raw, rate, imu_gaps, settings, lag_settings)
     return AuditFrame(
         run_id=run.run_id, group=run.run_id, terrain=replay.terrain, t_s=t,
         commanded_yaw_rate=x, commanded_speed=v,
         manoeuvre=classify_manoeuvres(x, v, replay.vel_l, replay.vel_r, replay.track_m,
                                       settings),
         quiet=_quiet(t, x, settings), sim_wz=replay.yaw_rate, sim_ax=replay.ax,
-        sim_ay=replay.ay, sim_vx=replay.v_x, sim_cur=replay.cur, cur=cur, has_imu=has_imu,
-        wz=wz, ax=ax, ay=ay, pitch=pitch, has_pitch=has_pitch, imu_t_s=imu_t, imu_wz=imu_wz,
-        score_imu=score_imu, score_cur=score_cur, lag=lag)
+        sim_ay=replay.ay, sim_vx=replay.v_x, sim_cur=replay.cur, cur=cur, score_cur=score_cur,
+        imu_raw=raw, imu_rate_hz=rate, imu_gaps=imu_gaps, **ch)
+
+
+def _align_imu(t: np.ndarray, x: np.ndarray, sim_wz: np.ndarray,
+               sim_ax_slow: Callable[[], np.ndarray], score: np.ndarray, ti: np.ndarray,
+               raw: np.ndarray, rate: float, imu_gaps, settings: FrameSettings,
+               lag_settings: LagSettings) -> dict:
+    """The IMU channels of one record (a run or a segment) on its wheel clock.
+
+    The measured ``wz, ax, ay`` (``raw``, on ``ti``) are low-passed over this record only,
+    its lag track is estimated from this record only, and they are read at ``t - lag(t)``;
+    the scored IMU samples are those of ``score`` at least ``edge_s`` inside the IMU record
+    on both clocks and outside the IMU gaps (the body of :func:`prepare_frame`).
+
+    Parameters
+    ----------
+    t, x, sim_wz : ndarray, shape (n,)
+        Wheel times (s), commanded and replayed yaw rate (rad/s).
+    sim_ax_slow : callable
+        ``sim_ax_slow()`` is the replayed longitudinal acceleration low-passed for the
+        pitch, shape (n,), m/s^2 (computed only where there is an IMU).
+    score : ndarray of bool, shape (n,)
+        Wheel samples that may be scored (the record's span, no wheel gap).
+    ti : ndarray, shape (m,)
+        IMU times, s (empty, or fewer than :data:`MIN_IMU_SAMPLES`: no IMU).
+    raw : ndarray, shape (m, 3)
+        Measured ``wz`` (rad/s), ``ax``, ``ay`` (m/s^2).
+    rate : float
+        The IMU's rate, Hz.
+    imu_gaps : sequence of (start, stop)
+        IMU gaps, s.
+    settings : FrameSettings
+    lag_settings : LagSettings
+
+    Returns
+    -------
+    dict
+        The :class:`AuditFrame` fields ``has_imu, wz, ax, ay, pitch, has_pitch, imu_t_s,
+        imu_wz, score_imu, lag``.
+    """
+    if len(ti) < MIN_IMU_SAMPLES:
+        nan = np.full(len(t), np.nan)
+        return dict(has_imu=False, wz=nan, ax=nan.copy(), ay=nan.copy(),
+                    pitch=np.zeros(len(t)), has_pitch=np.zeros(len(t), dtype=bool),
+                    imu_t_s=np.empty(0), imu_wz=np.empty(0),
+                    score_imu=np.zeros(len(t), dtype=bool),
+                    lag=LagTrack(np.empty(0), np.empty(0), np.empty(0), 0))
+    chans = lowpass(raw, rate, settings.imu_cutoff_hz)
+    lag = estimate_lag_track(t, x, ti, chans[:, 0], lag_settings, alternative=sim_wz)
+    t_imu = t - lag.at(t)
+    wz, ax, ay = (np.interp(t_imu, ti, chans[:, j]) for j in range(3))
+    ax_slow = np.interp(t_imu, ti, lowpass(raw[:, 1], rate, settings.pitch_cutoff_hz,
+                                           padtype="even"))
+    has_pitch = (t_imu >= ti[0]) & (t_imu <= ti[-1])
+    pitch = np.where(has_pitch, np.arcsin(np.clip((ax_slow - sim_ax_slow()) / G_M_S2,
+                                                  -1.0, 1.0)), 0.0)
+    score_imu = (score & (t_imu >= ti[0] + settings.edge_s)
+                 & (t_imu <= ti[-1] - settings.edge_s)
+                 & (t >= ti[0] + settings.edge_s) & (t <= ti[-1] - settings.edge_s)
+                 & ~_in_gaps(t_imu, imu_gaps))
+    return dict(has_imu=True, wz=wz, ax=ax, ay=ay, pitch=pitch, has_pitch=has_pitch,
+                imu_t_s=ti, imu_wz=chans[:, 0], score_imu=score_imu, lag=lag)
 
 
 def segment_lag(frame: AuditFrame, start: int, stop: int,
@@ -429,14 +480,21 @@ def segment_lag(frame: AuditFrame, start: int, stop: int,
 
 
 def split_frame(frame: AuditFrame, n_parts: int,
-                lag_settings: LagSettings = LagSettings()) -> list[AuditFrame]:
+                lag_settings: LagSettings = LagSettings(),
+                settings: FrameSettings = FrameSettings()) -> list[AuditFrame]:
     """Cut a frame into ``n_parts`` contiguous segments of equal sample count.
 
     Used when a terrain has too few runs for leave-one-run-out: the segments become the
-    cross-validation units (``group = <run_id>#<k>``). Each segment's ``lag`` is its own
-    (:func:`segment_lag`), not the whole run's, so the ``wheel_lag`` fit of a fold never
-    sees the left-out segment; the measured channels stay on the run's own lag track (the
-    clock alignment of every comparison, :func:`prepare_frame`).
+    cross-validation units (``group = <run_id>#<k>``). Each segment is aligned from its own
+    samples only, as a run of its own (:func:`prepare_frame`): its measured IMU channels
+    (the samples stamped within its wheel time span) are low-passed over the segment, its
+    lag track is estimated from them (:func:`segment_lag`), and they are read on that track;
+    IMU samples within ``edge_s`` of the segment's IMU record are not scored. So the gyro of
+    a left-out segment moves nothing of the segments the fold is trained on (with the
+    run's track and zero-phase low-pass it moved its neighbour's aligned gyro). The
+    replay, the currents and their scored samples are the run's, cut. A frame without its
+    raw IMU record (``imu_raw`` empty: built other than by :func:`prepare_frame`) keeps the
+    run's aligned channels, with each segment's own lag.
 
     Parameters
     ----------
@@ -446,6 +504,8 @@ def split_frame(frame: AuditFrame, n_parts: int,
         Number of segments (1 or less: the frame itself).
     lag_settings : LagSettings
         Lag estimation of each segment (those the run's track was estimated with).
+    settings : FrameSettings
+        Filters and scored edges of each segment (those the run was prepared with).
 
     Returns
     -------
@@ -464,12 +524,26 @@ def split_frame(frame: AuditFrame, n_parts: int,
     per_sample = ("t_s", "commanded_yaw_rate", "commanded_speed", "manoeuvre", "quiet",
                   "sim_wz", "sim_ax", "sim_ay", "sim_vx", "sim_cur", "cur", "wz", "ax", "ay",
                   "pitch", "has_pitch", "score_imu", "score_cur")
+    realign = frame.has_imu and len(frame.imu_raw) == len(frame.imu_t_s)
+    if realign:
+        sim_ax_slow = _slow_within_edges(frame.t_s, frame.sim_ax,
+                                         scored_span(frame.t_s, settings), settings)
     parts = []
     for k, idx in enumerate(np.array_split(np.arange(frame.n), n_parts)):
         if idx.size == 0:
             continue
         sl = slice(int(idx[0]), int(idx[-1]) + 1)
-        parts.append(replace(frame, group=f"{frame.run_id}#{k}",
-                             lag=segment_lag(frame, sl.start, sl.stop, lag_settings),
-                             **{name: getattr(frame, name)[sl] for name in per_sample}))
+        part = replace(frame, group=f"{frame.run_id}#{k}",
+                       **{name: getattr(frame, name)[sl] for name in per_sample})
+        if not realign:
+            part = replace(part, lag=segment_lag(frame, sl.start, sl.stop, lag_settings))
+        else:
+            t = frame.t_s[sl]
+            inside = (frame.imu_t_s >= t[0]) & (frame.imu_t_s <= t[-1])
+            slow = sim_ax_slow[sl]
+            ch = _align_imu(t, frame.commanded_yaw_rate[sl], frame.sim_wz[sl], lambda: slow,
+                            frame.score_cur[sl], frame.imu_t_s[inside], frame.imu_raw[inside],
+                            frame.imu_rate_hz, frame.imu_gaps, settings, lag_settings)
+            part = replace(part, imu_raw=frame.imu_raw[inside], **ch)
+        parts.append(part)
     return parts

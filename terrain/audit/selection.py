@@ -49,7 +49,7 @@ import numpy as np
 from terrain.audit.effects import (EFFECT_VOCABULARY, GROUP_MODELS, GROUPS, CurrentParams,
                                    EffectSettings, LagParams, NotIdentifiable, YawParams,
                                    effect_cause, effect_details, effect_params)
-from terrain.audit.frames import AuditFrame, split_frame
+from terrain.audit.frames import AuditFrame, FrameSettings, split_frame
 from terrain.audit.timing import LagSettings
 from terrain.errors import ConfigError, config_integer
 from terrain.io.jsonfile import json_ready
@@ -982,7 +982,8 @@ def unscored_group(group: str, terrain: str, reason: str, n_runs: int) -> GroupR
 
 def make_units(frames: Sequence[AuditFrame], min_units: int,
                needs: Callable[[AuditFrame], bool],
-               lag_settings: LagSettings = LagSettings()
+               lag_settings: LagSettings = LagSettings(),
+               frame_settings: FrameSettings = FrameSettings()
                ) -> tuple[list[list[AuditFrame]], bool]:
     """Cross-validation units from frames that have the needed signals.
 
@@ -998,6 +999,8 @@ def make_units(frames: Sequence[AuditFrame], min_units: int,
     lag_settings : LagSettings
         Lag estimation of each segment (:func:`~terrain.audit.frames.split_frame`: a
         segment carries its own lag, not its run's).
+    frame_settings : FrameSettings
+        Filters and scored edges each segment is aligned with (the runs' own).
 
     Returns
     -------
@@ -1012,6 +1015,6 @@ def make_units(frames: Sequence[AuditFrame], min_units: int,
     if len(usable) >= min_units:
         return [[f] for f in usable], False
     parts = int(np.ceil(min_units / len(usable)))
-    units = [[p] for f in usable for p in split_frame(f, parts, lag_settings)
+    units = [[p] for f in usable for p in split_frame(f, parts, lag_settings, frame_settings)
              if needs(p)]
     return units, True

@@ -389,12 +389,6 @@ def test_a_mirrored_drive_names_the_same_effects_with_mirrored_sizes(seed, name)
             assert eb.heldout_gain == pytest.approx(ea.heldout_gain, rel=1e-6, abs=1e-9)
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "segments of one run keep the run's lag track and its zero-phase low-pass (split_frame): "
-    "the gyro of a held-out segment moves the aligned gyro of its neighbour, a training "
-    "segment (0.06 rad/s here, chi of the fold 1.55407 -> 1.55422); aligning each segment "
-    "on its own track would change the segmented Vulpi DIRT_ROAD figures of "
-    "docs/audit_physics_v2_vulpi.json"))
 def test_a_held_out_segments_gyro_does_not_move_its_folds_training_data(tmp_path):
     from audit_helpers import simulated_streams, write_signal_files
     from terrain.audit.frames import prepare_frame, split_frame

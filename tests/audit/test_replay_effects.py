@@ -482,7 +482,11 @@ def test_segments_carry_their_own_lag_and_the_held_out_one_stays_out(sim_run):
     late = frame.imu_t_s > frame.t_s[frame.n // 2]
     wz = frame.imu_wz.copy()
     wz[late] = np.interp(frame.imu_t_s[late] - 0.8, frame.imu_t_s, frame.imu_wz)
-    delayed = replace(frame, imu_wz=wz, lag=estimate_lag_track(
+    # segments are aligned from the measured record (split_frame low-passes each segment's
+    # own samples), so the measured gyro is delayed too
+    raw = frame.imu_raw.copy()
+    raw[late, 0] = np.interp(frame.imu_t_s[late] - 0.8, frame.imu_t_s, frame.imu_raw[:, 0])
+    delayed = replace(frame, imu_wz=wz, imu_raw=raw, lag=estimate_lag_track(
         frame.t_s, frame.commanded_yaw_rate, frame.imu_t_s, wz, alternative=frame.sim_wz))
     assert delayed.lag.median_s == pytest.approx(-0.33, abs=0.05)   # the run's own track
     fits = []
