@@ -237,6 +237,14 @@ def _check_factors(owner: str, factors: Sequence[float]) -> None:
         raise ConfigError(f"{owner}: factor(s) {twice} given twice; give each once")
 
 
+def _replay_and_frame(run: Run, settings: AuditSettings):
+    """The catalogue replay of one run and its audit frame (the one recipe of
+    :func:`prepare_frames` and of the lateral-friction sweep's measured-chi samples);
+    raises as :func:`replay_run` and :func:`prepare_frame`."""
+    rep = replay_run(run, settings.replay)
+    return rep, prepare_frame(run, rep, settings.frames, settings.lag)
+
+
 def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings()
                    ) -> tuple[list[AuditFrame], dict[str, str]]:
     """Replay every run and put it on the comparison clock.
@@ -258,8 +266,7 @@ def prepare_frames(runs: Sequence[Run], settings: AuditSettings = AuditSettings(
     frames, skipped = [], {}
     for run in runs:
         try:
-            rep = replay_run(run, settings.replay)
-            frame = prepare_frame(run, rep, settings.frames, settings.lag)
+            rep, frame = _replay_and_frame(run, settings)
         except (ConfigError, DataFormatError) as exc:
             skipped[run.run_id] = str(exc)
             continue
@@ -677,8 +684,7 @@ def lateral_friction_sweep(runs: Sequence[Run], terrain: str, factors: Sequence[
             # record's scored span counted stopped samples and samples outside the IMU
             # record on the replayed side only
             try:
-                rep = replay_run(run, settings.replay)
-                frame = prepare_frame(run, rep, settings.frames, settings.lag)
+                rep, frame = _replay_and_frame(run, settings)
             except (ConfigError, DataFormatError) as exc:
                 skipped[run.run_id] = str(exc)
                 continue
