@@ -3,31 +3,11 @@ folder through :func:`terrain.io.jsonfile.staged_outputs`."""
 
 from __future__ import annotations
 
-import threading
 import time
 
 from terrain.io import jsonfile
 from terrain.io.jsonfile import staged_outputs
-
-
-def _at_once(n, target):
-    """Run ``target(i)`` in ``n`` threads started together; their results or errors."""
-    barrier = threading.Barrier(n)
-    results: dict = {}
-
-    def body(i):
-        barrier.wait()
-        try:
-            results[i] = target(i)
-        except BaseException as exc:  # noqa: B902 - reported by the test
-            results[i] = exc
-
-    threads = [threading.Thread(target=body, args=(i,)) for i in range(n)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    return [results[i] for i in range(n)]
+from tests.threads import at_once
 
 
 def _slow_listing(monkeypatch):
@@ -62,7 +42,7 @@ def test_two_commands_writing_one_out_folder_at_once_leave_one_commands_files(
         return i
 
     for _ in range(3):
-        results = _at_once(2, command)
+        results = at_once(2, command)
         assert results == [0, 1], results
         names = sorted(p.name for p in out.iterdir())
         winner = {(out / "summary.json").read_text()}

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from pipelines import control_classifier
+from tests.threads import at_once
 
 
 @dataclasses.dataclass(frozen=True)
@@ -64,26 +65,6 @@ class _Windows:
         return 2
 
 
-def _at_once(n, target):
-    """Run ``target(i)`` in ``n`` threads started together; their results or errors."""
-    barrier = threading.Barrier(n)
-    results: dict = {}
-
-    def body(i):
-        barrier.wait()
-        try:
-            results[i] = target(i)
-        except BaseException as exc:  # noqa: B902 - reported by the test
-            results[i] = exc
-
-    threads = [threading.Thread(target=body, args=(i,), name=f"t{i}") for i in range(n)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join()
-    return [results[i] for i in range(n)]
-
-
 def test_two_runs_training_the_same_classifier_at_once_both_get_a_whole_model(
         tmp_path, monkeypatch):
     # both trained under the one fixed staging name model.tmp: the second removed the
@@ -97,7 +78,7 @@ def test_two_runs_training_the_same_classifier_at_once_both_get_a_whole_model(
             "husky", ("ICE", "SNOW"), seeds=(2000,), scenarios=("straight_accel",),
             cache_dir=tmp_path, controlled_runs=False)
 
-    results = _at_once(2, train)
+    results = at_once(2, train)
     errors = [r for r in results if isinstance(r, BaseException)]
     assert not errors, errors
     (path_a, info_a), (path_b, info_b) = results

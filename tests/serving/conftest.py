@@ -3,7 +3,7 @@ served (session scope)."""
 
 from __future__ import annotations
 
-from types import MappingProxyType
+from types import MappingProxyType, SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -77,3 +77,21 @@ def served_all(all_model, tmp_path_factory):
                {"dataset": "t", "channel_steps_s": m.metadata["channel_steps_s"]})
     save_served_model(root / "served", root / "train", served_settings(m))
     return mlflow.pyfunc.load_model(str(root / "served"))
+
+
+@pytest.fixture(scope="module")
+def served_wheels(wheel_model, tmp_path_factory):
+    """The wheel-only model as the served pyfunc, loaded in process as the scoring server
+    loads it (``load_context`` as MLflow calls it); one per test module, so a module's
+    requests see no other module's."""
+    import joblib
+
+    from terrain.serving.served import ServedStreamModel, served_settings
+
+    path = tmp_path_factory.mktemp("served_wheels") / "pipeline.joblib"
+    joblib.dump(wheel_model.pipeline, path)
+    context = SimpleNamespace(artifacts={"pipeline": str(path)},
+                              model_config=served_settings(wheel_model))
+    model = ServedStreamModel()
+    model.load_context(context)
+    return model

@@ -14,6 +14,7 @@ import pytest
 
 from terrain.serving import pyfunc, served
 from terrain.serving.served import ServedInputError, is_long
+from tests.threads import at_once
 
 KEY = "MLFLOW_ENABLE_ARTIFACTS_PROGRESS_BAR"
 
@@ -83,22 +84,6 @@ def test_artifact_progress_many_threads(no_key):
     assert KEY not in os.environ
 
 
-@pytest.fixture(scope="module")
-def served_wheels(wheel_model, tmp_path_factory):
-    """The wheel model as the served pyfunc, loaded as the scoring server loads it."""
-    import joblib
-
-    from terrain.serving.served import ServedStreamModel, served_settings
-
-    path = tmp_path_factory.mktemp("served_threads") / "pipeline.joblib"
-    joblib.dump(wheel_model.pipeline, path)
-    context = SimpleNamespace(artifacts={"pipeline": str(path)},
-                              model_config=served_settings(wheel_model))
-    model = ServedStreamModel()
-    model.load_context(context)
-    return model
-
-
 def test_concurrent_requests_in_both_lanes_answer_as_one_at_a_time(served_wheels,
                                                                    unseen_wheel_request,
                                                                    monkeypatch):
@@ -122,20 +107,9 @@ def test_concurrent_requests_in_both_lanes_answer_as_one_at_a_time(served_wheels
 
 def _concurrently(model, requests, alone):
     """Each request sent twice at once, in threads started together, answered as alone."""
-    barrier = threading.Barrier(len(requests) * 2)
-    got: dict = {}
-
-    def work(i):
-        barrier.wait(10)
-        got[i] = _answer(model, requests[i % len(requests)])
-
-    threads = [threading.Thread(target=work, args=(i,)) for i in range(len(requests) * 2)]
-    for t in threads:
-        t.start()
-    for t in threads:
-        t.join(60)
-    assert len(got) == len(threads)
-    for i, answer in got.items():
+    got = at_once(len(requests) * 2, lambda i: _answer(model, requests[i % len(requests)]),
+                  timeout_s=60)
+    for i, answer in enumerate(got):
         expected = alone[i % len(requests)]
         if isinstance(expected, str):
             assert answer == expected
@@ -219,20 +193,11 @@ def test_the_terrain_pyfunc_predicts_from_threads_at_once_as_alone(
     alone = [_loaded(context).predict(context, x.copy()) for x in inputs]
     assert all(len(a) for a in alone)
     for model in (TerrainModel(), _loaded(context)):
-        barrier = threading.Barrier(3 * len(inputs))
-        got: dict = {}
-
-        def work(i, model=model, barrier=barrier, got=got):
-            barrier.wait(10)
-            got[i] = model.predict(context, inputs[i % len(inputs)].copy())
-
-        threads = [threading.Thread(target=work, args=(i,)) for i in range(3 * len(inputs))]
-        for t in threads:
-            t.start()
-        for t in threads:
-            t.join(60)
-        assert len(got) == len(threads)
-        for i, answer in got.items():
+        got = at_once(3 * len(inputs),
+                      lambda i, model=model: model.predict(context,
+                                                           inputs[i % len(inputs)].copy()),
+                      timeout_s=60)
+        for i, answer in enumerate(got):
             pd.testing.assert_frame_equal(answer, alone[i % len(inputs)])
             assert answer.attrs == alone[i % len(inputs)].attrs
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 import copy
 import pickle
 from dataclasses import replace
-from types import MappingProxyType, SimpleNamespace
+from types import MappingProxyType
 
 import numpy as np
 import pandas as pd
@@ -220,22 +220,6 @@ def test_replay_leaves_the_run_as_it_was(wheel_model, borealtc_runs, train_runs)
     for s, f in run.streams.items():
         pd.testing.assert_frame_equal(f, before[s])
     assert dict(run.meta).keys() == meta.keys()
-
-
-@pytest.fixture(scope="module")
-def served_wheels(wheel_model, tmp_path_factory):
-    """The wheel-only model served in process (``load_context`` as MLflow calls it)."""
-    import joblib
-
-    from terrain.serving.served import ServedStreamModel, served_settings
-
-    path = tmp_path_factory.mktemp("served_state") / "pipeline.joblib"
-    joblib.dump(wheel_model.pipeline, path)
-    context = SimpleNamespace(artifacts={"pipeline": str(path)},
-                              model_config=served_settings(wheel_model))
-    model = ServedStreamModel()
-    model.load_context(context)
-    return model
 
 
 def test_a_request_is_left_as_sent_and_answered_whatever_came_before(served_wheels,
