@@ -34,6 +34,7 @@ from terrain.errors import (ConfigError, DataFormatError, ImplausibleValueError,
                             config_numbers, holds_booleans, refuse_unreal)
 from terrain.terramechanics import TerrainParams, traction_coefficient
 from terrain.terramechanics.resistance import G_M_S2, soil_resistance_coefficient
+from terrain.terramechanics.slip import rim_speed_from_slip
 
 
 def traction_acceleration_limit(terrain: TerrainParams, slip: float) -> float:
@@ -107,7 +108,9 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     """One step of the feed-forward slip limit (module docstring).
 
     ``v_ref <- max(v_lift, min(v_ref + max(a_max, 0) dt, |omega_ll| r))``;
-    ``omega_lim = v_ref / (r (1 - s_t))``; the correction lowers ``|omega_ll|`` to
+    ``omega_lim = v_ref / (r (1 - s_t))`` (the rim speed of the SAE slip ``s_t`` at the
+    ground speed ``v_ref``, :func:`terrain.terramechanics.slip.rim_speed_from_slip`, over
+    ``r``); the correction lowers ``|omega_ll|`` to
     ``omega_lim`` where it is above, keeping its sign. The estimate lifts the reference,
     ``v_lift = |v_est|``, except where the limit was ``engaged`` at the previous step: there
     ``v_lift = min(|v_est|, v_ref + max(a_max, 0) dt)``, so an engaged limit is released no
@@ -210,7 +213,8 @@ def feedforward_step(v_ref_m_s: np.ndarray, v_est_m_s: np.ndarray,
     grown = v_ref + max(a_max, 0.0) * dt_s
     lift = v_est if engaged is None else np.where(engaged, np.minimum(v_est, grown), v_est)
     v_ref = np.maximum(lift, np.minimum(grown, rim))
-    limit = v_ref / (radius * (1.0 - s_t))
+    # rim speed at the target slip per unit ground speed (linear in v at fixed slip, v >= 0)
+    limit = v_ref * (rim_speed_from_slip(1.0, s_t)[0] / radius)
     over = np.abs(omega) > limit
     corr = np.where(over, np.sign(omega) * (limit - np.abs(omega)), 0.0)
     return FeedForward(corr, v_ref, limit, over)
