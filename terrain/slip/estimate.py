@@ -37,7 +37,7 @@ from terrain.estimation.agrimaro import (AgriMaRoEKFSettings, estimate_agrimaro,
 from terrain.estimation.ekf import Gate
 from terrain.estimation.prefilter import robust_noise_std
 from terrain.estimation.result import EKFResult
-from terrain.estimation.runner import check_rate_hz
+from terrain.estimation.runner import check_rate_hz, clock_rate_hz
 from terrain.estimation.skid_steer import SkidSteerSettings, estimate_skid_steer
 from terrain.estimation.skid_steer_slip import SkidSteerSlipSettings
 from terrain.run import TIME, Run, times_out_of_order
@@ -878,7 +878,8 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
     gate : Gate, optional
         Chi-square gating per sensor.
     rate_hz : float, optional
-        Filter rate, Hz (default: the IMU rate, else the wheel rate).
+        Filter rate, Hz (default: the IMU rate, else the wheel rate, read off the stream's
+        clock by :func:`terrain.estimation.runner.clock_rate_hz`).
     settings : FusionSettings
         Std floors and EKF tuning (default :data:`BATCH_FUSION`).
 
@@ -963,7 +964,9 @@ def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,
             if np.isfinite(noise) and noise > 0:
                 fs = replace(fs, accel_std_m_s2=float(noise))
     rate = check_rate_hz(rate_hz)
-    rate = float(1.0 / np.median(np.diff(spans[-1]))) if rate is None else rate
+    # the estimators' one default rate: the IMU's median step, snapped within the clock's
+    # rounding (clock_rate_hz; 1 / median read 100.0000000524 Hz at 1e5 s)
+    rate = clock_rate_hz(spans[-1]) if rate is None else rate
     grid = make_grid(*stream_overlap_s(run.run_id, dict(zip(("wheels", "imu"), spans)),
                                        f", after the wheels' lag of {off:.6g} s was subtracted"
                                        if off else ""), rate)

@@ -1,10 +1,8 @@
 """The slip filter of a skid-steer run (terrain.slip.estimate.estimate_skid_steer_slip_run)
 at its default rate reads the same run on a clock shifted by a day, or on an epoch clock, as
-on the clock from 0. Its default rate is still 1 / the median IMU step, which the clock's
-rounding moves (100.0000000524 Hz at 1e5 s, 100.000095 Hz at 1.7e9 s): what put the plain
-skid-steer filter's samples one step late (est20, fixed there with
-terrain.estimation.runner.clock_rate_hz) does not move this one's (states within 3e-8 on
-20 s at 1.7e9 s), so it is guarded here rather than changed."""
+on the clock from 0. Its default rate was 1 / the median IMU step, which the clock's
+rounding moves (100.0000000524 Hz at 1e5 s, 100.000095 Hz at 1.7e9 s); it is now the
+estimators' one rule, terrain.estimation.runner.clock_rate_hz (est20), and this guards it."""
 
 from __future__ import annotations
 
