@@ -92,15 +92,6 @@ def test_an_imu_in_the_filters_own_axes_passes_and_in_a_z_down_frame_is_refused(
     check_accel_units(_frd(streams["imu"]), "imu", found=[])
 
 
-_SIDES_NOT_REFUSED = pytest.mark.xfail(
-    strict=True, reason="swapped wheel sides are read without a word: io23's rule wheel_sides "
-    "(refuse at corr <= -0.5 of the yaw rate on the wheel speed difference, >= 10 wheel "
-    "samples) refused valid random runs of test_io_properties_io14 (corr -0.53 on 12 samples "
-    "of uncorrelated noise), so a short served request could be refused by chance; it was "
-    "taken back until the evidence it needs is sized (samples, turn, correlation)")
-
-
-@_SIDES_NOT_REFUSED
 @settings(max_examples=30, deadline=None)
 @given(turns, st.floats(0.2, 0.9), st.integers(0, 2**16))
 def test_wheel_sides_of_the_filters_own_convention_pass_and_swapped_are_refused(
@@ -153,7 +144,6 @@ def test_a_run_with_an_imu_in_a_z_down_frame_is_refused_by_the_readers(tmp_path,
     assert info.value.column == "az" and str(info.value.path).endswith("imu_00.csv")
 
 
-@_SIDES_NOT_REFUSED
 def test_a_run_with_its_wheel_sides_swapped_is_refused_by_the_readers(tmp_path, sim_run):
     streams = dict(sim_run.streams, wheels=_swapped(sim_run.streams["wheels"]))
     run = Run(sim_run.run_id, "sim", sim_run.terrain, streams, vehicle="husky")
