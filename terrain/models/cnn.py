@@ -47,6 +47,7 @@ from sklearn.utils.multiclass import check_classification_targets
 from sklearn.utils.validation import (check_array, check_consistent_length, check_is_fitted,
                                       column_or_1d)
 
+from features.calculators import hann_taper
 from terrain.errors import (ConfigError, ShapeError, config_integer, config_numbers,
                             config_positive, refuse_missing)
 from terrain.models.cv import class_keeping_split, restored_on_failure
@@ -96,7 +97,7 @@ def segment_samples(rate_hz: float, segment_s: float, n_samples: int) -> int:
 
 def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: float
                     ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-channel log power short-time spectra (Hann window, one-sided).
+    """Per-channel log power short-time spectra (periodic Hann window, one-sided).
 
     Parameters
     ----------
@@ -107,8 +108,8 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     segment_s : float
         STFT segment length, s (:func:`segment_samples`: clipped to the window length, at
         least 2 samples where the window has them; a segment of fewer than 4 samples is
-        tapered with a rectangular window, since a Hann window of 2 samples is all zeros and
-        one of 3 keeps its middle sample alone, whose spectrum is flat).
+        tapered with a rectangular window, since a Hann window of 2 or 3 samples drops the
+        oldest sample and weighs the others nearly alike).
     hop_s : float
         Hop between segments, s (the nearest whole number of samples, at least 1).
 
@@ -116,10 +117,15 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     -------
     spectra : numpy.ndarray
         ``(n_windows, n_channels, n_freqs, n_frames)`` float32, ``log10(|STFT|^2 + 1e-10)``.
-        Frames start every hop from the window's first sample, ``(n_samples - seg) // hop +
-        1`` of them; the ``(n_samples - seg) % hop`` samples after the last whole segment are
-        in no frame, and the Hann taper (``numpy.hanning``) weighs the first and last sample
-        of each segment 0 (with the defaults 0.5 s / 0.2 s, the last 0.1 s of a 2 s window).
+        Frames are aligned to the window's end, ``(n_samples - seg) // hop + 1`` of them
+        every hop, the last one ending at the newest sample: the ``(n_samples - seg) % hop``
+        oldest samples are in no frame (with the defaults 0.5 s / 0.2 s, the first 0.1 s of a
+        2 s window), never the newest ones a live decision is about. The taper is the
+        periodic ("DFT-even") Hann window of spectral analysis
+        (:func:`features.calculators.hann_taper`, as ``scipy.signal.get_window`` and
+        ``scipy.signal.stft`` use it): it weighs a segment's first sample 0 and its last
+        sample not, so the newest sample reaches the spectrum (the symmetric
+        ``numpy.hanning`` weighed both ends 0).
     freqs_hz : numpy.ndarray
         ``(n_freqs,)`` bin frequencies, Hz.
 
@@ -127,14 +133,22 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     ------
     ConfigError
         ``rate_hz``, ``segment_s`` or ``hop_s`` not a finite number > 0.
+
+    References
+    ----------
+    F. J. Harris, "On the use of windows for harmonic analysis with the discrete Fourier
+    transform", Proc. IEEE 66(1), 1978, sec. II-B and IV (DFT-even windows: the periodic
+    extension of the window, its last zero dropped, for spectral analysis with the DFT).
     """
     config_positive("log_spectrogram", rate_hz=rate_hz, segment_s=segment_s, hop_s=hop_s)
     seg = segment_samples(rate_hz, segment_s, X.shape[-1])
     hop = max(1, int(round(hop_s * rate_hz)))
-    frames = np.lib.stride_tricks.sliding_window_view(X, seg, axis=-1)[..., ::hop, :]
-    # a Hann window of 2 samples is all zeros (a constant image), one of 3 keeps the middle
-    # sample alone (every bin its power, no spectrum): shorter ones are rectangular
-    taper = np.hanning(seg) if seg >= 4 else np.ones(seg)
+    # frames end at the newest sample: the first starts after the (n - seg) % hop oldest
+    start = (X.shape[-1] - seg) % hop
+    frames = np.lib.stride_tricks.sliding_window_view(X[..., start:], seg, axis=-1)[..., ::hop, :]
+    # a Hann taper of 2 or 3 samples drops the oldest sample and leaves one or two at nearly
+    # equal weight, no better than none: segments shorter than 4 samples are rectangular
+    taper = hann_taper(seg) if seg >= 4 else np.ones(seg)
     spec = np.fft.rfft(frames * taper.astype(np.float32), axis=-1)
     power = np.log10(np.abs(spec) ** 2 + POWER_FLOOR).astype(np.float32)
     return np.swapaxes(power, -1, -2), np.fft.rfftfreq(seg, 1.0 / rate_hz)

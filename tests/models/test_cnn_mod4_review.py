@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from scipy.signal import get_window
 from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default prepend import)
 
 from terrain.errors import ConfigError
@@ -84,7 +85,7 @@ def test_the_noise_copy_is_drawn_from_random_state():
 def test_a_three_sample_segment_is_rectangular_and_a_four_sample_one_hann_tapered():
     """np.hanning(3) is [0, 1, 0], which left every bin of a 3-sample segment the middle
     sample's power (no spectrum): segments under 4 samples are rectangular (review mdl23);
-    from 4 samples on the Hann taper applies."""
+    from 4 samples on the periodic Hann taper applies."""
     X = np.array([[[1.0, 2.0, 4.0, -3.0]]], dtype=np.float32)
     spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=0.03, hop_s=0.01)
     assert spec.shape == (1, 1, 2, 2) and freqs.tolist() == pytest.approx([0.0, 100 / 3])
@@ -93,7 +94,7 @@ def test_a_three_sample_segment_is_rectangular_and_a_four_sample_one_hann_tapere
         np.testing.assert_allclose(spec[0, 0, :, frame], np.log10(power + POWER_FLOOR),
                                    rtol=1e-6)
     spec, _ = log_spectrogram(X, RATE_HZ, segment_s=0.04, hop_s=0.01)
-    power = np.abs(np.fft.rfft(X[0, 0].astype(np.float64) * np.hanning(4))) ** 2
+    power = np.abs(np.fft.rfft(X[0, 0].astype(np.float64) * get_window("hann", 4))) ** 2
     np.testing.assert_allclose(spec[0, 0, :, 0], np.log10(power + POWER_FLOOR), rtol=1e-5)
 
 

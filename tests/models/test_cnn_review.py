@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 import skorch
+from scipy.signal import get_window
 from sklearn.base import clone
 from test_cnn import FAST, RATE_HZ, _planted  # same folder (pytest's default prepend import)
 from torch import nn
@@ -25,8 +26,10 @@ def test_segment_and_hop_are_the_nearest_whole_samples_and_frames_are_hann_spect
     spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=0.29, hop_s=0.29)
     assert spec.shape == (2, 1, 15, 6)                # (200 - 29) // 29 + 1 frames
     assert freqs[1] == pytest.approx(RATE_HZ / 29)
+    # frames end at the newest sample (review mdl23): the (200 - 29) % 29 = 26 oldest
+    # samples are in no frame; the taper is the periodic Hann window
     for k in (0, 5):
-        frame = X[1, 0, 29 * k:29 * k + 29] * np.hanning(29)
+        frame = X[1, 0, 26 + 29 * k:26 + 29 * k + 29] * get_window("hann", 29)
         np.testing.assert_allclose(spec[1, 0, :, k],
                                    np.log10(np.abs(np.fft.rfft(frame)) ** 2 + POWER_FLOOR),
                                    rtol=1e-4, atol=1e-4)
@@ -241,7 +244,8 @@ def test_a_segment_of_two_samples_gives_a_spectrum_not_a_constant_image(segment_
     X = np.random.default_rng(1).normal(size=(2, 1, n_samples)).astype(np.float32)
     spec, freqs = log_spectrogram(X, RATE_HZ, segment_s=segment_s, hop_s=0.1)
     assert freqs.tolist() == [0.0, RATE_HZ / 2]
-    pair = X[..., :2]
+    start = (n_samples - 2) % 10                      # the frames end at the newest sample
+    pair = X[..., start:start + 2]
     expect = np.stack([pair.sum(-1), pair[..., 0] - pair[..., 1]], axis=-1)
     np.testing.assert_allclose(spec[..., 0], np.log10(expect ** 2 + POWER_FLOOR), rtol=1e-4)
     assert np.ptp(spec) > 1.0
