@@ -106,7 +106,10 @@ def test_terrain_stream_replay_decides_as_the_served_model(all_model, unseen_lon
 
 @pytest.mark.xfail(strict=True, reason=(
     "svc22, left alone (docs/streaming.md, \"One grid per stream\": anchoring once per "
-    "stream passes this but costs 0.914 -> 0.887 on the held-out streams): the service "
+    "stream passes this but costs 0.914 -> 0.887 on the held-out streams; the grid through "
+    "the IMU's newest sample one step before each decision, compared within clock_slack, "
+    "passes it and moves them 0.9141 -> 0.9137 all-signal with the spectrogram-frame fix, "
+    "0.7976 -> 0.7962 wheel-only: tried 2026-11-30, reverted): the service "
     "anchors each "
     "window's grid at the newest of the streams' first samples read for it "
     "(RingBuffer.since(t - window_s - 2 / rate_hz) keeps the sample just before), so its "
