@@ -51,7 +51,7 @@ from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_integer,
                             config_numbers, config_positive, duplicated)
-from terrain.run import TIME, Run, times_out_of_order
+from terrain.run import TIME, Run, clock_slack, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
 #: every dataset gets identical features and the combined model sees one definition.
@@ -162,6 +162,75 @@ def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: f
     while end < n and t0 + end / rate_hz < before_s:
         end += 1
     return t0 + np.arange(max(end - n_last, 0), end) / rate_hz, end
+
+
+def anchored_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, anchor_s: float,
+                       n_last: int) -> tuple[np.ndarray, int]:
+    """The last points of a clock at ``rate_hz`` through ``anchor_s``, inside the overlap.
+
+    The grid of :func:`overlap_grid` starts at the streams' latest first sample, so its
+    phase follows whichever sample a caller read first. A stream service that cuts one
+    window at a time reads a different first sample for each window (a float tie of its
+    look-back bound with a sample stamp decided which), so its grid should be anchored at a
+    time of its choosing instead: a sample of the stream the grid stays on, or the
+    decision clock.
+
+    Parameters
+    ----------
+    times_s : sequence of numpy.ndarray
+        As for :func:`overlap_grid`.
+    rate_hz : float
+        Rate of the clock, Hz (> 0).
+    anchor_s : float
+        A point of the clock, its latest candidate, s: the grid is ``anchor_s - k /
+        rate_hz`` for whole ``k >= 0``.
+    n_last : int
+        How many points, at most, to return (the latest).
+
+    Returns
+    -------
+    tail : numpy.ndarray
+        ``(min(n_last, count),)`` the latest points of the grid inside the span every
+        stream covers (latest first sample to earliest last sample, each end moved out by
+        :func:`terrain.run.clock_slack`), increasing, s.
+    count : int
+        Number of grid points inside that span (0 when the spans do not overlap or the
+        anchor is before it).
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not a finite number > 0, ``anchor_s`` not a finite number, or
+        ``n_last`` not an integer >= 0.
+    """
+    t0, n = _grid_span(times_s, rate_hz, "anchored_grid_tail")
+    config_integer("anchored_grid_tail.n_last", n_last, 0)
+    config_numbers("anchored_grid_tail", anchor_s=anchor_s)
+    if not np.isfinite(anchor_s):
+        raise ConfigError(f"anchored_grid_tail.anchor_s must be a finite time, got "
+                          f"{anchor_s!r}")
+    t1 = min(float(t[-1]) for t in times_s)
+    # a point within the clock's rounding of the span's ends is inside it (the window that
+    # starts at a stream's first sample starts there whichever way anchor - k / rate rounds;
+    # interpolation there reads the end sample's value)
+    t0, t1 = t0 - float(clock_slack(t0)), t1 + float(clock_slack(t1))
+    if n == 0 or anchor_s < t0:
+        return np.empty(0), 0
+    # the first k with anchor - k / rate <= t1, and the last with anchor - k / rate >= t0,
+    # on the grid's own float arithmetic
+    k_first = max(0, int(np.ceil((anchor_s - t1) * rate_hz)))
+    while k_first > 0 and anchor_s - (k_first - 1) / rate_hz <= t1:
+        k_first -= 1
+    while anchor_s - k_first / rate_hz > t1:
+        k_first += 1
+    k_last = int(np.floor((anchor_s - t0) * rate_hz))
+    while anchor_s - (k_last + 1) / rate_hz >= t0:
+        k_last += 1
+    while k_last >= 0 and anchor_s - k_last / rate_hz < t0:
+        k_last -= 1
+    count = max(0, k_last - k_first + 1)
+    k = np.arange(k_first + min(n_last, count) - 1, k_first - 1, -1)
+    return anchor_s - k / rate_hz, count
 
 
 #: Slack of the bounds on a stream's time step, a fraction of the bound: a step within it

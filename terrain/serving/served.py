@@ -36,7 +36,7 @@ misspelt channel, another sensor) are not read: every window names them,
 count of the others; empty when none), and counts them, ``n_ignored_columns``.
 
 A window holding a timestamp gap costs the same as any other (the service aligns only its
-window's end of the streams' grid, :func:`terrain.io.align.overlap_grid_tail`; the window is
+window's end of the streams' grid, :func:`terrain.io.align.anchored_grid_tail`; the window is
 a dropped ``gap`` row), and a request whose time span would make more than
 ``max_decisions`` decisions is refused before any work, so the cost of a request is bounded
 by its rows and the limits, never by the length of a gap in it.

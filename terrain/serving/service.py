@@ -14,7 +14,8 @@ clock it is put on). Every ``hop_s`` of service time the service
 
 1. takes the samples of every needed stream around ``[t - window_s, t)``,
 2. aligns the last window of the model's length with the project's NumPy alignment core
-   (:func:`terrain.io.align.overlap_grid_tail`, the window's end of ``overlap_grid``, and
+   (:func:`terrain.io.align.anchored_grid_tail`, the window's end of a grid through the
+   newest sample of the fastest stream at the grid's rate, or the decision clock, and
    :func:`terrain.io.align.align_arrays`, the step the batch readers'
    :func:`~terrain.io.align.align_streams` runs) and adds the
    derived wheel channels (:func:`features.windows.derived_wheel_arrays`, with the
@@ -83,10 +84,10 @@ import numpy as np
 from features.calculators import quantile_sorted
 from features.windows import DERIVED_WHEEL_CHANNELS, derived_wheel_arrays
 from terrain.errors import ConfigError
-from terrain.io.align import align_arrays, gap_steps, overlap_grid_tail
+from terrain.io.align import align_arrays, anchored_grid_tail, gap_steps
 from terrain.io.plausibility import (VEHICLE_LIMITS, accel_in_g, stuck_flag,
                                      wheel_speed_in_kmh)
-from terrain.run import WHEEL_CHANNELS
+from terrain.run import WHEEL_CHANNELS, clock_slack
 from terrain.serving.config import StreamConfig, check_hop
 from terrain.serving.decisions import Decision
 from terrain.serving.inputs import check_same_index, chunk_values, real_array
@@ -115,6 +116,60 @@ def _same_time_s(t_s: float) -> float:
     :data:`~terrain.serving.rules.MAX_PLAUSIBLE_TIME_S`, below half the period of a 2 kHz
     IMU)."""
     return max(1e-9, 8.0 * math.ulp(t_s))
+
+
+#: How much longer than the grid's step a stream's usual step may be for the window's grid
+#: to stay on its samples (:func:`_grid_anchor`): a clock's drift (1e-4 for a 100.01 Hz
+#: IMU) and its stamps' jitter in the median step, far below a slower stream's (a 40 Hz
+#: stream on a 50 Hz grid is 25 % slower).
+GRID_STREAM_SLACK = 0.01
+
+
+def _grid_anchor(times: list[np.ndarray], steps: list[float], t: float, rate_hz: float,
+                 slack: float) -> float:
+    """The last point of the grid of the window decided at ``t``, s.
+
+    The batch windows lie on a run's grid at ``rate_hz`` (:func:`terrain.io.align.
+    overlap_grid`) and a window ending at ``t`` has its last point at ``t - 1 / rate_hz``.
+    Where a stream is sampled at the grid's rate or faster (the IMU; its usual step within
+    :data:`GRID_STREAM_SLACK` of the grid's step or shorter), the last point is its newest
+    sample at or before ``t - 1 / rate_hz`` (within ``slack``, the clock's rounding:
+    :func:`terrain.run.clock_slack`), so the grid stays on that stream's samples
+    wherever its clock drifts or a new piece of stream starts; among several such
+    streams, the fastest (the first listed at equal steps). Where none is (wheel-only
+    models), the last point is ``t - 1 / rate_hz`` itself, on the decision clock, which
+    is the batch grid's for a stream on the model's clock from its first sample.
+    Measured against one grid per stream: docs/streaming.md, "One grid per stream".
+
+    Parameters
+    ----------
+    times : list of numpy.ndarray
+        ``(m_i,)`` increasing stamps of each stream read for the window, s.
+    steps : list of float
+        Each stream's usual step, s.
+    t : float
+        Decision time, s.
+    rate_hz : float
+        Grid rate, Hz.
+    slack : float
+        Rounding slack of a stamp compared with a time, s.
+
+    Returns
+    -------
+    float
+        The anchor, s (``t - 1 / rate_hz`` when the fastest stream has no sample at or
+        before it less than one grid step back).
+    """
+    end = t - 1.0 / rate_hz
+    fast = [i for i, step in enumerate(steps) if step <= (1.0 + GRID_STREAM_SLACK) / rate_hz]
+    if not fast:
+        return end
+    ts = times[min(fast, key=lambda i: steps[i])]
+    k = int(np.searchsorted(ts, end + slack, side="right")) - 1
+    # a sample less than one grid step back; none there (the stream lags or holds a gap at
+    # the window's end): the decision clock, so the window still ends where it should and
+    # the gap or staleness is seen, not stepped around
+    return float(ts[k]) if k >= 0 and end - ts[k] < 1.0 / rate_hz else end
 
 
 def _median_norm(sq: np.ndarray) -> float:
@@ -429,14 +484,19 @@ class StreamService:
     def _window(self, t: float) -> tuple[np.ndarray | None, float, set[str]]:
         """Aligned window ending at or before ``t``: (X (1, ch, n) or None, age, flags)."""
         w = self.model.window
-        lo = t - w.window_s - 2.0 / w.rate_hz
+        # stamps are compared with times within the clock's rounding (clock_slack): a
+        # sample on the look-back bound (read as the one just before it) or at t (the
+        # decision clock and a 100 Hz IMU share a lattice) is on it whichever way the
+        # floats round, so a shift of every clock reads the same samples
+        slack = float(clock_slack(t))
+        lo = t - w.window_s - 2.0 / w.rate_hz + slack
         times, values, steps = [], [], []
         for name, buf in self._intake.buffers.items():
             ts, vs = buf.since(lo)
             # up to the first sample at or past t, whatever came after it: the IMU's
             # anti-alias filter runs both ways over what is read, so one more sample would
             # move the window's values with the chunking of the pushes
-            cut = int(np.searchsorted(ts, t, side="left")) + 1
+            cut = int(np.searchsorted(ts, t - slack, side="left")) + 1
             ts, vs = ts[:cut], vs[:cut]
             if len(ts) < 2:
                 return None, np.inf, {"short"}
@@ -448,11 +508,14 @@ class StreamService:
             times.append(ts)
             values.append(vs)
         # the window covers [t - window_s, t), as the batch windows [t_start_s, t_end_s):
-        # the last n points of the streams' common grid before t (only those are built, so
-        # a window inside a long timestamp gap costs no more than any other); a grid point
-        # within the clock's rounding of t is at t (_same_time_s)
+        # the last n points of a grid ending at t - 1 / rate (only those are built, so a
+        # window inside a long timestamp gap costs no more than any other), moved back onto
+        # the newest sample there of the fastest stream at the grid's rate or faster
+        # (_grid_anchor)
         tol = _same_time_s(t)
-        tail, end = overlap_grid_tail(times, w.rate_hz, t - tol, self._n)
+        tail, end = anchored_grid_tail(times, w.rate_hz,
+                                       _grid_anchor(times, steps, t, w.rate_hz, slack),
+                                       self._n)
         if end == 0:  # streams do not overlap inside the window
             return None, np.inf, {"short"}
         age = t - float(tail[-1]) - 1.0 / w.rate_hz
@@ -463,7 +526,8 @@ class StreamService:
             return None, age, {"short"}
         # a gap counts where it holds a grid point of the window: a step that ends at or
         # before the first point (read for the look-back margin) leaves the window whole
-        gap = any(self._holds_gap(ts, step, tail[0]) for ts, step in zip(times, steps))
+        gap = any(self._holds_gap(ts, step, tail[0] + slack)
+                  for ts, step in zip(times, steps))
         aligned = align_arrays(times, values, tail, w.rate_hz, self.config.gap_factor,
                                steps).T
         if self._wheel_cols is not None:

@@ -1,22 +1,20 @@
-"""Batch and live alignment of one stream off the model's clock (strict xfail: serving).
+"""Batch and live alignment of one stream off the model's clock (review io23).
 
 The batch windows (:func:`terrain.io.align.align_streams`, then
 :func:`features.windows.window_frame`) lie on the run's clock, a grid from the streams'
-common first sample; the streaming service aligns each window with the same functions but
-on the grid of the samples in its buffers (:func:`terrain.io.align.overlap_grid_tail` of
-the buffered slice), whose first point is a stream sample near the window's start. A 6.5 Hz
-wheel stream on a 10 Hz model clock then gives windows a fraction of a grid step apart from
-the batch windows ending at the same time, and values up to 12 % of the signal's amplitude
-off (docs/streaming.md promises the batch windows only for streams already on the model's
-clock). The fix belongs to :mod:`terrain.serving` (keep the grid's origin) and would move
-the documented held-out stream figures.
+common first sample. The streaming service aligned each window on the grid of the samples
+in its buffers (its first point a stream sample near the window's start), so a 6.5 Hz wheel
+stream on a 10 Hz model clock gave windows a fraction of a grid step apart from the batch
+windows ending at the same time, values up to 12 % of the signal's amplitude off. With no
+stream at the model's rate, the service's grid now ends one step before the decision
+(:func:`terrain.io.align.anchored_grid_tail`), on the decision clock, which is the batch
+grid's: the live windows are the batch windows.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-import pytest
 
 from features.windows import WindowConfig, window_frame
 from terrain.io.align import align_streams
@@ -42,13 +40,6 @@ class _Recorder:
         return np.tile([0.5, 0.5], (len(X), 1))
 
 
-@pytest.mark.xfail(strict=True, reason="the streaming service aligns each window on the grid "
-                   "of its buffered samples, not on the run's clock of the batch windows "
-                   "(terrain.serving; one grid per stream passes this, and costs 0.914 -> "
-                   "0.887 on the held-out streams; a grid one step before each decision, on "
-                   "the decision clock for wheel-only models, passes it too and moves the "
-                   "wheel-only streams 0.798 -> 0.796 (2026-11-30, reverted): "
-                   "docs/streaming.md, \"One grid per stream\")")
 def test_live_windows_of_a_stream_off_the_model_clock_are_the_batch_windows():
     recorder = _Recorder()
     window = WindowConfig(window_s=2.0, hop_s=1.0, rate_hz=10.0)
@@ -72,3 +63,17 @@ def test_live_windows_of_a_stream_off_the_model_clock_are_the_batch_windows():
             np.testing.assert_allclose(live[0], X[k[0]], rtol=0.0, atol=1e-9)
             compared += 1
     assert compared >= 15
+
+
+def test_the_anchored_grid_tail_is_the_grid_through_the_anchor_inside_the_overlap():
+    from terrain.io.align import anchored_grid_tail
+    times = [np.arange(0.0, 3.0, 0.01), np.arange(0.05, 2.5, 1.0 / 6.5)]
+    tail, count = anchored_grid_tail(times, 10.0, 2.43, 5)
+    t1 = times[1][-1]                                  # the wheels end first
+    want = [p for p in 2.43 - np.arange(30) / 10.0 if 0.05 <= p <= t1]
+    assert count == len(want)
+    np.testing.assert_allclose(tail, sorted(want)[-5:], rtol=0.0, atol=1e-12)
+    # a point within the clock's rounding of the overlap's first sample is inside it
+    tail, count = anchored_grid_tail(times, 10.0, 0.05 + 3 * 0.1 - 1e-15, 10)
+    assert count == 4 and abs(tail[0] - 0.05) < 1e-12
+    assert anchored_grid_tail(times, 10.0, 0.0, 3)[1] == 0      # before the overlap

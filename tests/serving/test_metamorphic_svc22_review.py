@@ -5,7 +5,8 @@ any column order and any interleaving of the long rows that keeps each stream in
 ``terrain stream``'s in-process replay (one by one) decides as the served model (chunks of
 32) on the same samples; the forward filter's closed-form skip is the prediction steps one by
 one, decided class included, and without hysteresis it decides the argmax. A shift of every
-clock by the same time is a strict xfail (left alone, see its reason).
+clock by the same time changes no probability (it was a strict xfail: the window's grid
+followed a float tie of the look-back bound with an IMU stamp).
 """
 
 from __future__ import annotations
@@ -104,18 +105,6 @@ def test_terrain_stream_replay_decides_as_the_served_model(all_model, unseen_lon
     assert (frame["flags"] == "").all() and (answer["flags"] == "").all()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "svc22, left alone (docs/streaming.md, \"One grid per stream\": anchoring once per "
-    "stream passes this but costs 0.914 -> 0.887 on the held-out streams; the grid through "
-    "the IMU's newest sample one step before each decision, compared within clock_slack, "
-    "passes it and moves them 0.9141 -> 0.9137 all-signal with the spectrogram-frame fix, "
-    "0.7976 -> 0.7962 wheel-only: tried 2026-11-30, reverted): the service "
-    "anchors each "
-    "window's grid at the newest of the streams' first samples read for it "
-    "(RingBuffer.since(t - window_s - 2 / rate_hz) keeps the sample just before), so its "
-    "phase follows a float tie of that look-back bound with a 100 Hz IMU stamp: every stamp "
-    "+2.3 s moves the 50 Hz grid of the decision at 6.0 s from 4.01..5.99 to 4.00..5.98 s "
-    "and its probabilities by 0.04 (the batch overlap_grid is anchored once per run)"))
 def test_a_shift_of_every_clock_changes_no_probability(served_all, unseen_long, answer):
     """Every stamp of every stream moved by 2.3 s: the decision times move by 2.3 s and
     nothing else changes (probabilities to 1e-9, the rest exactly)."""

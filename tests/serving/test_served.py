@@ -644,27 +644,32 @@ def test_windows_over_a_gap_are_those_of_the_whole_grid_without_building_it(
     gaps, short and long, are those of the whole grid (how it aligned before), and no window
     builds more grid than its own (it built the whole gap, per window, so a request with
     one large time jump took minutes)."""
-    from terrain.io.align import overlap_grid, overlap_grid_tail
+    from terrain.io.align import anchored_grid_tail
+    from terrain.run import clock_slack
     from terrain.serving import service as service_module
 
     frame = request_frame.drop(index=range(15, 25))  # a hole of ~1.5 s
     frame.loc[frame.index >= frame.index[len(frame) // 2], "t_s"] += 40.0  # a jump of 40 s
     sizes = []
 
-    def tail(times, rate_hz, before_s, n_last):
-        out = overlap_grid_tail(times, rate_hz, before_s, n_last)
+    def tail(times, rate_hz, anchor_s, n_last):
+        out = anchored_grid_tail(times, rate_hz, anchor_s, n_last)
         sizes.append(out[0].size)
         return out
 
-    monkeypatch.setattr(service_module, "overlap_grid_tail", tail)
+    monkeypatch.setattr(service_module, "anchored_grid_tail", tail)
     got = _replay(StreamService, wheel_model, frame)
 
-    def whole_grid(times, rate_hz, before_s, n_last):
-        grid = overlap_grid(times, rate_hz)
-        end = int(np.searchsorted(grid, before_s, side="left"))
-        return grid[max(end - n_last, 0):end], end
+    def whole_grid(times, rate_hz, anchor_s, n_last):
+        # the whole grid through the anchor over the streams' overlap (the ends within
+        # the clock's rounding), built point by point
+        t0 = max(t[0] for t in times) - clock_slack(max(t[0] for t in times))
+        t1 = min(t[-1] for t in times) + clock_slack(min(t[-1] for t in times))
+        grid = [anchor_s - k / rate_hz for k in range(int((anchor_s - t0) * rate_hz) + 2)]
+        grid = np.array(sorted(g for g in grid if t0 <= g <= t1))
+        return grid[max(len(grid) - n_last, 0):], len(grid)
 
-    monkeypatch.setattr(service_module, "overlap_grid_tail", whole_grid)
+    monkeypatch.setattr(service_module, "anchored_grid_tail", whole_grid)
     want = _replay(StreamService, wheel_model, frame)
     pd.testing.assert_frame_equal(got, want)
     assert want["flags"].str.contains("gap").sum() > 80
