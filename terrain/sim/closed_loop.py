@@ -1,14 +1,14 @@
 """Closed loop in simulation: online sensors between the plant and a robot-side controller.
 
-:func:`terrain.sim.dynamics.integrate` hands its hook the *plant* after every step
-(:class:`~terrain.sim.dynamics.PlantSnapshot`). :class:`OnlineSensors` turns that into what
-the robot measures, sample by sample at each sensor's rate (the vehicle's
-:class:`~terrain.sim.sensors.SensorSettings`): the IMU, encoder wheel speeds (count rate per
-physics step when the speed quantum is 0, the motor driver's first-order filter, the speed
-quantum), motor currents, steering encoders quantised, and on the AgriMaRo the T265 camera
-velocity at its mount with noise and outages. :func:`make_hook` calls a controller at its
-own rate with only the samples taken since its previous call (:class:`Observation`) and the
-robot's own low-level command, and returns its correction.
+:func:`terrain.sim.dynamics.integrate` hands its hook the *plant* at every time stamp
+(:class:`~terrain.sim.dynamics.PlantSnapshot`: at rest at the first, then after every step).
+:class:`OnlineSensors` turns that into what the robot measures, sample by sample at each
+sensor's rate (the vehicle's :class:`~terrain.sim.sensors.SensorSettings`): the IMU, encoder
+wheel speeds (count rate per physics step when the speed quantum is 0, the motor driver's
+first-order filter, the speed quantum), motor currents, steering encoders quantised, and on
+the AgriMaRo the T265 camera velocity at its mount with noise and outages. :func:`make_hook`
+calls a controller at its own rate with only the samples taken since its previous call
+(:class:`Observation`) and the robot's own low-level command, and returns its correction.
 
 The IMU comes in two views of the same samples (same white noise and bias draws):
 
@@ -224,7 +224,7 @@ class OnlineSensors:
         Parameters
         ----------
         snap : PlantSnapshot
-            Plant state after a physics step.
+            Plant state at a time stamp of the physics grid.
         """
         s, t = self.settings, snap.t_s
         first = self._t_prev is None
@@ -531,7 +531,7 @@ def replay_observations(sim: Simulation, control_rate_hz: float = 50.0):
     for k in range(n):
         snap = PlantSnapshot(k, float(phys.t_s[k]), phys.pose[k], phys.twist[k],
                              phys.accel_body[k], phys.omega[k], phys.delta[k],
-                             phys.omega_cmd[min(k + 1, n - 1)], phys.torque[k],
+                             phys.omega_cmd[k], phys.torque[k],
                              float(phys.pitch[k]), float(phys.roll[k]),
                              int(phys.terrain_index[k]))
         sensors.record(snap)

@@ -9,7 +9,7 @@ limit, speed-controlled motors as first-order lags with speed limits) and integr
 equations ``M dV/dt = F(V) + Coriolis`` with one Newton step per time step (linearly implicit
 Euler), ``(M - dt J) dV = dt F(V)``, ``J = dF/dV`` analytic, which is stable at 100 Hz.
 
-Closed loop: an optional hook (:data:`ControlHook`) sees the plant after every step and
+Closed loop: an optional hook (:data:`ControlHook`) sees the plant at every time stamp and
 returns a wheel speed correction held until its next return (:mod:`terrain.sim.closed_loop`
 puts the robot's sensors between the two); without a hook nothing changes.
 
@@ -128,10 +128,13 @@ def soil_contacts(vehicle, geometry: ContactGeometry, terrains: tuple) -> dict:
 class PhysicsResult:
     """Ground truth at every physics step (n steps, m motors).
 
-    Row ``k`` holds the state at the *end* of the step that starts at ``t_s[k]`` (the
-    command of ``t_s[k]`` applied for one step ``dt``), so the plant is one step ahead of
-    its time stamp: the first row is not the rest state (a known gap, kept so as not to
-    move the simulated runs: ``tests/sim/test_sim_sim22_review.py``, strict xfail).
+    Row ``k`` holds the plant at its time stamp ``t_s[k]``: row 0 is the vehicle at rest
+    (every scenario starts standing), row ``k + 1`` the state at the end of the step from
+    ``t_s[k]`` to ``t_s[k + 1]`` (the command of ``t_s[k]`` applied for one step ``dt``).
+    Quantities of a step (acceleration, torque, slip) are stored at the row where the step
+    ends; row 0 holds 0 for them (no step has run). Until 2026-11-30 row ``k`` held the
+    state at the end of the step starting at ``t_s[k]``, one step ahead of its time stamp
+    (``tests/sim/test_sim_sim22_review.py``).
 
     Parameters
     ----------
@@ -142,18 +145,20 @@ class PhysicsResult:
     twist : ndarray, shape (n, 3)
         v_x, v_y (m/s), yaw_rate (rad/s), body frame.
     accel_body : ndarray, shape (n, 2)
-        Body-frame kinematic acceleration ``dV/dt + r x V``, m/s^2.
+        Body-frame kinematic acceleration ``dV/dt + r x V`` over the step that ends at
+        ``t_s[k]`` (0 at row 0), m/s^2.
     omega : ndarray, shape (n, m)
         True motor (wheel) speeds, rad/s.
     omega_cmd : ndarray, shape (n, m)
-        Commanded wheel speeds, rad/s.
+        Commanded wheel speeds, rad/s (row ``k``: the command of the step that starts at
+        ``t_s[k]``).
     slip_motor : ndarray, shape (n, m)
         Mean SAE slip of the contacts of each motor, ``(omega r - v) / max(|omega r|, |v|,
         SLIP_SPEED_FLOOR_M_S)`` (dimensionless).
     delta : ndarray, shape (n, m)
         Steering angles (zeros for skid-steer), rad.
     torque : ndarray, shape (n, m)
-        Wheel torque of each motor, N m.
+        Wheel torque of each motor over the step that ends at ``t_s[k]`` (0 at row 0), N m.
     pitch : ndarray, shape (n,)
         Nose-up inclination, rad.
     roll : ndarray, shape (n,)
@@ -198,7 +203,7 @@ class PhysicsResult:
 
 
 class PlantSnapshot(NamedTuple):
-    """Physical state after one integrator step, handed to a closed-loop hook.
+    """Physical state at one time stamp of the grid, handed to a closed-loop hook.
 
     This is the plant, not what a robot measures: a hook must pass it through sensor models
     (:mod:`terrain.sim.closed_loop` does) before anything reaches a controller.
@@ -206,9 +211,9 @@ class PlantSnapshot(NamedTuple):
     Parameters
     ----------
     step : int
-        Index of the step just completed.
+        Row of :class:`PhysicsResult` (0: the vehicle at rest, before the first step).
     t_s : float
-        Time stamp of the step (``t_s[step]`` of the grid, as in :class:`PhysicsResult`), s.
+        Its time stamp, ``t_s[step]`` of the grid, s.
     pose : ndarray, shape (3,)
         x, y (m), yaw (rad).
     twist : ndarray, shape (3,)
@@ -220,10 +225,11 @@ class PlantSnapshot(NamedTuple):
     delta : ndarray, shape (m,)
         Steering angles, rad (zeros for skid-steer).
     omega_low_level : ndarray, shape (m,)
-        Wheel speed command of the kinematic low level for the next step (before any
-        correction), rad/s: known to the robot, it is its own command.
+        Wheel speed command of the kinematic low level for the next step (from ``t_s``;
+        before any correction), rad/s: known to the robot, it is its own command.
     torque : ndarray, shape (m,)
-        Wheel torque of each motor over the step just completed, N m (what the drive's
+        Wheel torque of each motor over the step that ended at ``t_s`` (0 at rest), N m
+        (what the drive's
         current sensor sees, through :func:`terrain.sim.forces.reported_current_a`).
     pitch : float
         Nose-up inclination (:func:`slope_attitude`), rad.
@@ -248,9 +254,10 @@ class PlantSnapshot(NamedTuple):
     terrain_index: int = 0
 
 
-#: Closed-loop hook: called after every integrator step with the plant's state; returns a
-#: wheel speed correction (rad/s, shape (m,)) added to the low-level command from the next
-#: step on (held until the next non-None return), or None to keep the held one.
+#: Closed-loop hook: called at every time stamp of the grid with the plant's state there
+#: (first at rest, then after every integrator step); returns a wheel speed correction
+#: (rad/s, shape (m,)) added to the low-level command from the step that starts there on
+#: (held until the next non-None return), or None to keep the held one.
 ControlHook = Callable[[PlantSnapshot], "np.ndarray | None"]
 
 
@@ -479,10 +486,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         Constant steering error inside the dead band, rad (swerve only: refused for a
         vehicle that does not steer).
     hook : ControlHook, optional
-        Closed loop: called after every step with a :class:`PlantSnapshot`; the correction
-        it returns (rad/s per motor) is added to the low-level wheel command of the following
-        steps, the sum clipped to the speed limit (counted in ``correction_clipped_steps``),
-        and ``omega_cmd`` of the result records the corrected command. None (default): open
+        Closed loop: called at every time stamp with a :class:`PlantSnapshot` of the plant
+        there (first at rest, then after every step); the correction it returns (rad/s per
+        motor) is added to the low-level wheel command of the steps from that time on, the
+        sum clipped to the speed limit (counted in ``correction_clipped_steps``), and
+        ``omega_cmd`` of the result records the corrected command. None (default): open
         loop, the commands of ``twist_cmd`` unchanged (bit-identical to a run without the
         argument).
     physics : str
@@ -628,7 +636,42 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     dist = 0.0
     n_terr = len(terrains)
     fixed_maps = None if layout.steered else velocity_maps(layout, np.zeros_like(layout.x_m))
+
+    def snapshot(k: int) -> None:
+        """Hand the hook the plant at t_s[k] (row k); keep the correction it returns."""
+        nonlocal correction
+        pitch_k, roll_k = (slope_attitude(slope_rad, pose_out[k, 2]) if slope_rad
+                           else (0.0, 0.0))
+        new = hook(PlantSnapshot(k, float(t_s[k]), pose_out[k].copy(), twist_out[k].copy(),
+                                 acc_out[k].copy(), omega_out[k].copy(), delta_out[k].copy(),
+                                 omega_ll[k].copy(), torque_out[k].copy(), float(pitch_k),
+                                 float(roll_k), int(terr_out[k])))
+        if new is not None:
+            refuse_booleans(ConfigError,
+                            **{f"the closed-loop hook's correction at step {k}": new})
+            new = np.asarray(new, dtype=float)
+            if new.size != nm:
+                raise ShapeError(f"the closed-loop hook returned {new.size} values for "
+                                 f"{nm} motors at step {k} (t = {t_s[k]:.3f} s), shape "
+                                 f"{new.shape}")
+            if not np.all(np.isfinite(new)):
+                raise NonFiniteInputError(f"the closed-loop hook returned a non-finite "
+                                          f"correction {new.ravel().tolist()} rad/s at "
+                                          f"step {k} (t = {t_s[k]:.3f} s)")
+            correction = new.reshape(nm)
+
+    # row 0: the vehicle at rest at t_s[0] (no step has run: no acceleration, torque or slip)
+    delta_out[0] = delta if layout.steered else 0.0
     for k in range(n):
+        # row k is the plant at t_s[k]; the step from t_s[k] to t_s[k + 1] (command k) writes
+        # row k + 1
+        if hook is not None:
+            snapshot(k)
+            wanted = omega_ll[k] + correction
+            corr_clipped += np.abs(wanted) > wmax
+            omega_cmd[k] = np.clip(wanted, -wmax, wmax)
+        if k == n - 1:
+            break
         ti = int(dist // segment_length_m) % n_terr
         ter = terrains[ti]
         # actuators: steering (rate-limited), speed loop (first-order lag)
@@ -640,10 +683,6 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         else:
             maps = fixed_maps
         omega_prev = omega
-        if hook is not None:
-            wanted = omega_ll[k] + correction
-            corr_clipped += np.abs(wanted) > wmax
-            omega_cmd[k] = np.clip(wanted, -wmax, wmax)
         omega = omega + alpha_m * (omega_cmd[k] - omega)
         dw = (omega - omega_prev) / dt
         # force model, then gravity and the Coriolis terms of the body-frame equations:
@@ -673,10 +712,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             raise np.linalg.LinAlgError(f"singular implicit-Euler matrix at step {k} "
                                         f"(t = {t_s[k]:.3f} s)")
         vel_new = vel + dv
-        acc_out[k] = [(vel_new[0] - vel[0]) / dt - vel[2] * vel[1],
+        j = k + 1
+        acc_out[j] = [(vel_new[0] - vel[0]) / dt - vel[2] * vel[1],
                       (vel_new[1] - vel[1]) / dt + vel[2] * vel[0]]
         vel = vel_new
-        acc_lt = acc_lt + alpha_lt * (specific_force_m_s2(acc_out[k], gravity, mass) - acc_lt)
+        acc_lt = acc_lt + alpha_lt * (specific_force_m_s2(acc_out[j], gravity, mass) - acc_lt)
         # pose on the plane
         yaw_mid = pose[2] + 0.5 * dt * vel[2]
         cm, sm = np.cos(yaw_mid), np.sin(yaw_mid)
@@ -688,36 +728,17 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         t_contact = contact_torque_nm(layout, ter, step_traction_coefficient(contact, maps, dv),
                                       contact.rim_speed_m_s, normal)
         torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + drive_inertia * dw
-        pose_out[k] = pose
-        twist_out[k] = vel
-        omega_out[k] = omega
+        pose_out[j] = pose
+        twist_out[j] = vel
+        omega_out[j] = omega
         # slip reported consistently with the stored (end-of-step) velocity
         slip_new = sae_slip(contact.rim_speed_m_s, maps.long_kinematic @ vel,
                             speed_floor_m_s=SLIP_SPEED_FLOOR_M_S, dead_band_m_s=0.0)
-        slip_out[k] = np.bincount(motor_of, weights=slip_new, minlength=nm) / counts
-        delta_out[k] = delta if layout.steered else 0.0
-        torque_out[k] = torque
-        terr_out[k] = ti
-        if hook is not None:
-            nxt = omega_ll[min(k + 1, n - 1)]
-            pitch_k, roll_k = slope_attitude(slope_rad, pose[2]) if slope_rad else (0.0, 0.0)
-            new = hook(PlantSnapshot(k, float(t_s[k]), pose.copy(), vel.copy(),
-                                     acc_out[k].copy(), omega.copy(), delta_out[k].copy(),
-                                     nxt.copy(), torque_out[k].copy(), float(pitch_k),
-                                     float(roll_k), ti))
-            if new is not None:
-                refuse_booleans(ConfigError,
-                                **{f"the closed-loop hook's correction at step {k}": new})
-                new = np.asarray(new, dtype=float)
-                if new.size != nm:
-                    raise ShapeError(f"the closed-loop hook returned {new.size} values for "
-                                     f"{nm} motors at step {k} (t = {t_s[k]:.3f} s), shape "
-                                     f"{new.shape}")
-                if not np.all(np.isfinite(new)):
-                    raise NonFiniteInputError(f"the closed-loop hook returned a non-finite "
-                                              f"correction {new.ravel().tolist()} rad/s at "
-                                              f"step {k} (t = {t_s[k]:.3f} s)")
-                correction = new.reshape(nm)
+        slip_out[j] = np.bincount(motor_of, weights=slip_new, minlength=nm) / counts
+        delta_out[j] = delta if layout.steered else 0.0
+        torque_out[j] = torque
+        # the terrain under the vehicle at t_s[j] (where it has arrived)
+        terr_out[j] = int(dist // segment_length_m) % n_terr
     yaw = pose_out[:, 2]
     pitch, roll = slope_attitude(slope_rad, yaw) if slope_rad else (np.zeros(n), np.zeros(n))
     return PhysicsResult(t_s=t_s, pose=pose_out, twist=twist_out, accel_body=acc_out,

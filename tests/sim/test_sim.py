@@ -530,12 +530,13 @@ def test_closed_loop_corrections_clipped_at_the_speed_limit_are_counted():
     wmax = HUSKY.motor.max_wheel_speed_rad_s
 
     def hook(snap):
-        # left side pushed past +limit from step 10 on, right past -limit from step 20 on;
+        # left side pushed past +limit from step 10 on, right past -limit from step 20 on
+        # (a correction returned at t_s[k] applies from the step that starts there, k);
         # exactly at the limit is no clip
         if snap.step == 0:
             return np.array([0.0, 0.0])
-        if snap.step in (9, 19):
-            return np.array([2.0 * wmax, -2.0 * wmax if snap.step == 19 else 0.0])
+        if snap.step in (10, 20):
+            return np.array([2.0 * wmax, -2.0 * wmax if snap.step == 20 else 0.0])
         return None
 
     sim = simulate_with_physics(cfg, hook=hook)
@@ -545,6 +546,7 @@ def test_closed_loop_corrections_clipped_at_the_speed_limit_are_counted():
     assert sim.run.meta["speed_limit_clipped_steps"] == [0, 0]
     np.testing.assert_array_equal(sim.physics.omega_cmd[10:, 0], wmax)
     np.testing.assert_array_equal(sim.physics.omega_cmd[20:, 1], -wmax)
+    assert np.all(np.abs(sim.physics.omega_cmd[:10, 0]) < wmax)
     at_limit = simulate_with_physics(cfg, hook=lambda snap: np.zeros(2))
     assert at_limit.physics.correction_clipped_steps.tolist() == [0, 0]
 

@@ -30,7 +30,9 @@ def test_the_terrain_changes_after_the_distance_travelled_sideways_too():
     cmd = np.column_stack([np.zeros_like(t), np.full_like(t, 0.5), np.zeros_like(t)])
     p = integrate(AGRIMARO, geo, (get_terrain("ASPHALT"), get_terrain("GRASS")), 0.4, t, cmd,
                   0.0, 1.0)
-    speed = np.hypot(p.twist[:-1, 0], p.twist[:-1, 1])
+    # row k is the vehicle at t_s[k] (row 0 at rest): the distance travelled by then is the
+    # sum of the speeds at the ends of the k steps before it
+    speed = np.hypot(p.twist[1:, 0], p.twist[1:, 1])
     travelled = np.concatenate([[0.0], np.cumsum(0.01 * speed)])
     assert abs(p.pose[-1, 0]) < 0.05 and abs(p.pose[-1, 1]) > 1.0
     np.testing.assert_array_equal(p.terrain_index, (travelled // 0.4).astype(int) % 2)

@@ -157,7 +157,10 @@ def test_a_step_longer_than_the_motor_lag_reaches_the_command_without_overshoot(
     # to twice it (alpha = 2) and ring
     t = np.arange(6) * 0.2
     p = _run(t, _turn(t, 0.5, 0.0, 0.0))
-    np.testing.assert_allclose(p.omega, p.omega_cmd, rtol=1e-12)
+    # row k + 1 is the wheel after the step that applied the command of row k (row 0 is
+    # the vehicle at rest, 2026-11-30)
+    np.testing.assert_array_equal(p.omega[0], 0.0)
+    np.testing.assert_allclose(p.omega[1:], p.omega_cmd[:-1], rtol=1e-12)
 
 
 def test_traction_from_rest_does_not_carry_the_body_past_its_rims():

@@ -123,16 +123,11 @@ def test_the_first_command_is_one_rate_limited_step_from_rest():
     np.testing.assert_allclose(first["spin"], [0.0, 0.0, 0.015], atol=1e-15)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "integrate stores the state at the end of step k under t_s[k] (its start): every truth "
-    "and sensor sample is the plant one physics step later than its time stamp; storing "
-    "the state before each step would shift every simulated stream by one step and move "
-    "the documented simulation figures"))
 def test_the_truth_at_t_0_is_the_vehicle_at_rest():
     """Every scenario starts with the vehicle standing (scenarios module docstring), so the
-    truth at t = 0 is the rest state. The first row holds the state after the first step
-    instead: orchard at 100 Hz, x = 5.0e-6 m, v_bx = 5.0e-4 m/s, omega 0.0030 rad/s at
-    t = 0 (the pose at t_s[k] is integrated over [t_s[k], t_s[k] + dt])."""
+    truth at t = 0 is the rest state. Until 2026-11-30 the first row held the state after
+    the first step: orchard at 100 Hz, x = 5.0e-6 m, v_bx = 5.0e-4 m/s, omega 0.0030 rad/s
+    at t = 0 (the pose at t_s[k] was integrated over [t_s[k], t_s[k] + dt])."""
     from terrain.sim import SimConfig
     from terrain.sim.simulate import simulate_with_physics
     sim = simulate_with_physics(SimConfig(scenario="orchard", duration_s=1.0))
