@@ -27,10 +27,10 @@ class SensorSettings:
     Parameters
     ----------
     imu_rate_hz, wheel_rate_hz, steer_rate_hz, cam_rate_hz, truth_rate_hz : float
-        Sampling rates, Hz. Husky defaults follow borealtc: IMU 100 Hz; wheels
-        ``1 / 0.1538 s = 6.502 Hz``, while BorealTC's ``pro_`` files step by exactly
-        ``1 / 6.5 s`` (a known gap, kept so as not to move the simulated wheel streams:
-        ``tests/sim/test_sensors_review_sen10.py``). The AgriMaRo's steering (50 Hz) and
+        Sampling rates, Hz. Husky defaults follow borealtc: IMU 100 Hz; wheels 6.5 Hz
+        (all 55 BorealTC ``pro_`` files, ``/work/shared/data/borealtc``, step by
+        ``1 / 6.5 = 0.153846 s``: median step 0.15384615 s in every file; until 2026-11-30
+        the default was ``1 / 0.1538 s = 6.502 Hz``). The AgriMaRo's steering (50 Hz) and
         camera (30 Hz) rates are ASSUMED: seed 001 gives none.
     gyro_noise_rad_s : float
         White noise std of each gyro axis per sample, rad/s (0.005 ASSUMED: no datasheet of
@@ -68,7 +68,7 @@ class SensorSettings:
     """
 
     imu_rate_hz: float = 100.0
-    wheel_rate_hz: float = 1.0 / 0.1538
+    wheel_rate_hz: float = 6.5
     steer_rate_hz: float = 50.0
     cam_rate_hz: float = 30.0
     truth_rate_hz: float = 100.0

@@ -78,25 +78,11 @@ def test_online_wheel_filter_starts_at_the_first_count_rate_and_holds_a_constant
     assert np.mean(wheels[-5:, 1:]) == pytest.approx(5.0, abs=0.3)
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "known defect, left because fixing it moves every simulated Husky wheel stream (and "
-    "the sim tables built on them): SensorSettings.wheel_rate_hz is 1 / 0.1538 = 6.50195 Hz, "
-    "while all 55 BorealTC pro_ files step by exactly 1 / 6.5 = 0.153846 s (the docstring "
-    "says 'wheels 6.5 Hz'); a 60 s run's last wheel sample falls at 59.98 s, not 60 s"))
 def test_the_husky_wheel_stream_runs_at_borealtc_s_6_5_hz():
     rate = SensorSettings().wheel_rate_hz
     assert rate == pytest.approx(6.5, rel=1e-9)
     t = sample_times(60.0, rate)
     assert len(t) == 391 and t[-1] == pytest.approx(60.0, abs=1e-9)
-
-
-def test_the_husky_wheel_stream_rate_as_it_is_now():
-    # what the strict xfail above records: 1 / 0.1538 s, 391 samples in 60 s, ending 0.018 s
-    # early (a change of the rate must be a decision, not pass unseen under the xfail)
-    rate = SensorSettings().wheel_rate_hz
-    assert rate == pytest.approx(6.50195, abs=1e-5)
-    t = sample_times(60.0, rate)
-    assert len(t) == 391 and t[-1] == pytest.approx(59.982, abs=1e-3)
 
 
 def test_batch_imu_on_a_slope_reads_gravity_along_the_plane():
