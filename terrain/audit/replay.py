@@ -429,8 +429,11 @@ def replay_run(run: Run, settings: ReplaySettings = ReplaySettings(),
         tie = np.abs(vel_r - vel_l) <= 1.01 * step
         mean = 0.5 * (vel_l + vel_r)
         in_l, in_r = np.where(tie, mean, vel_l), np.where(tie, mean, vel_r)
-    vl = np.interp(t, rel_w, in_l)
-    vr = np.interp(t, rel_w, in_r)
+    # the command of the step from t_k is the speed measured at its end, t_k + dt: the
+    # motor (time constant dt) reaches its command at the end of a step, so the replayed
+    # wheel at t_k is the measured one there (row k of the integrator is the plant at t_k)
+    vl = np.interp(t + dt, rel_w, in_l)
+    vr = np.interp(t + dt, rel_w, in_r)
     b = float(vehicle.track_m)
     # the body twist the measured sides command (seed 000 eq. 2, the one skid-steer relation
     # of terrain.vehicles), which the simulator's wheel_commands turns back into vl, vr

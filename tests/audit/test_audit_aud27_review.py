@@ -78,7 +78,10 @@ def test_the_replay_commands_the_twist_the_simulators_kinematics_turn_back_into_
     simulator turns it back into wheel speeds (wheel_commands: skid_steer_inverse). Both
     sides of that seam are the one skid-steer relation of terrain.vehicles (side order left,
     right; yaw rate positive turning left): the twist is skid_steer_forward's, and the
-    wheels it commands are the measured speeds, interpolated onto the physics grid."""
+    wheels it commands are the measured speeds, interpolated onto the physics grid at the
+    end of each step (the integrator's row k is the plant at t_k since 2026-11-30, so the
+    step from t_k is commanded the speed measured at t_k + dt, which the replay's motor
+    reaches at the end of the step)."""
     from terrain.audit import replay as replay_module
     from terrain.sim.dynamics import integrate, wheel_commands
     from terrain.vehicles import HUSKY, skid_steer_forward
@@ -95,7 +98,9 @@ def test_the_replay_commands_the_twist_the_simulators_kinematics_turn_back_into_
                          vel_r=lambda w: 0.3 + 0.4 * np.sin(0.5 * w.t_s))})
     rep = replay_module.replay_run(run, replay_module.ReplaySettings(merge_subresolution=False))
     rel = rep.t_s - rep.t_s[0]
-    vl, vr = np.interp(seen["t"], rel, rep.vel_l), np.interp(seen["t"], rel, rep.vel_r)
+    dt = seen["t"][1] - seen["t"][0]
+    vl = np.interp(seen["t"] + dt, rel, rep.vel_l)
+    vr = np.interp(seen["t"] + dt, rel, rep.vel_r)
     v, w = skid_steer_forward(vl, vr, HUSKY.track_m)
     np.testing.assert_array_equal(seen["twist"], np.column_stack([v, np.zeros_like(v), w]))
     omega, _, clipped = wheel_commands(seen["vehicle"], seen["geometry"], seen["twist"])
