@@ -13,7 +13,14 @@ Closed loop: an optional hook (:data:`ControlHook`) sees the plant at every time
 returns a wheel speed correction held until its next return (:mod:`terrain.sim.closed_loop`
 puts the robot's sensors between the two); without a hook nothing changes.
 
-Simplifications (stated): mass concentrated at the body origin, speed-controlled motors as
+The mass sits at the vehicle's centre of gravity, the point its static loads balance
+(:attr:`terrain.vehicles.common.ContactGeometry.cog_m`: the body origin for the Husky and
+the tracked vehicle, the wheel-triangle centroid for the AgriMaRo, seed 001 /
+``AgriMaRoParams.cog_m``), in the body-origin twist
+(:func:`terrain.sim.forces.rigid_body_terms`); until 2026-11-30 it sat at the body origin
+whatever the loads, so a straight AgriMaRo run yawed.
+
+Simplifications (stated): a rigid body, speed-controlled motors as
 first-order lags with speed limits; physics ``v1``: static normal loads (no load transfer);
 physics ``v2``: quasi-static load transfer from the specific force of the previous step (body
 acceleration less gravity along the plane, so a grade shifts load too,
@@ -38,8 +45,8 @@ from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER,
                                 check_physics, contact_forces, floored_contacts,
                                 contact_layout, contact_torque_nm, gravity_force,
                                 reach_chord_contact, step_traction_coefficient,
-                                specific_force_m_s2, transferred_normal_loads,
-                                velocity_maps)
+                                rigid_body_terms, specific_force_m_s2,
+                                transferred_normal_loads, velocity_maps)
 from terrain.terramechanics.lateral import (SOILS, SlipCompactionResistance, SoilContact,
                                             longitudinal_curve, soil_contact)
 from terrain.terramechanics.catalogue import TerrainParams
@@ -600,8 +607,13 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # steps on which each contact's transferred load was floored (counted, not hidden)
     load_floor = np.zeros(len(layout.normal_load_n), dtype=np.int64) if cog_h > 0 else None
     motor_of = layout.motor_of
-    m_mat = np.diag(np.array([mass, mass, vehicle.yaw_inertia_kg_m2]))
-    m_inv = np.diag(1.0 / np.diag(m_mat))
+    # the mass at the centre of gravity the static loads balance (the body origin for a
+    # symmetric layout), in the body-origin twist
+    cog = geometry.cog_m
+    m_mat, _ = rigid_body_terms(mass, vehicle.yaw_inertia_kg_m2, cog, np.zeros(3))
+    m_inv = np.linalg.inv(m_mat)
+    # contact positions about the centre of gravity (the load transfer's lever arms)
+    x_cg, y_cg = layout.x_m - cog[0], layout.y_m - cog[1]
     motor = vehicle.motor
     alpha_m = min(1.0, dt / motor.speed_time_constant_s)
     counts = np.bincount(motor_of, minlength=nm).astype(float)
@@ -685,21 +697,21 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         omega_prev = omega
         omega = omega + alpha_m * (omega_cmd[k] - omega)
         dw = (omega - omega_prev) / dt
-        # force model, then gravity and the Coriolis terms of the body-frame equations:
-        # m (dv_x/dt - r v_y) = F_x ...
+        # force model, then gravity and the velocity terms of the body-frame equations
         if cog_h > 0:
-            normal = transferred_normal_loads(layout.normal_load_n, layout.x_m, layout.y_m,
+            normal = transferred_normal_loads(layout.normal_load_n, x_cg, y_cg,
                                               mass, cog_h, acc_lt[0], acc_lt[1])
             # the loads the transfer asked below the floor (not those the rescaling took
             # below it)
-            load_floor += floored_contacts(layout.normal_load_n, layout.x_m, layout.y_m,
+            load_floor += floored_contacts(layout.normal_load_n, x_cg, y_cg,
                                            mass, cog_h, acc_lt[0], acc_lt[1])
         contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
                                  side_factor[ti], hold_slip[ti])
-        gravity = gravity_force(mass, slope_rad, pose[2])
-        force = contact.force + gravity
-        force[0] += mass * vel[2] * vel[1]
-        force[1] -= mass * vel[2] * vel[0]
+        gravity = gravity_force(mass, slope_rad, pose[2], cog)
+        # transport (Coriolis, centripetal) terms of the body-frame equations about the
+        # origin: m (dv_x/dt - r v_y) = F_x ... for a mass at the origin
+        force = contact.force + gravity + rigid_body_terms(mass, vehicle.yaw_inertia_kg_m2,
+                                                           cog, vel)[1]
         # traction slopes over the slip the step can reach (the explicit step's) where the
         # curve has flattened; the tyre's combined-slip law keeps its own (contact.slip None)
         if contact.slip is not None:

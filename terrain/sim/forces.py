@@ -733,10 +733,13 @@ def step_traction_coefficient(contact: ContactForces, maps: VelocityMaps,
     return contact.mu + contact.dmu_dv_s_m * (maps.long_kinematic @ dv)
 
 
-def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float) -> np.ndarray:
+def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float,
+                  cog_m: np.ndarray | None = None) -> np.ndarray:
     """Gravity along an inclined plane rising along world +x, in the body frame.
 
-    Grade resistance ``m g sin(slope)`` (seed 003 eq. 10-11) resolved on the body axes.
+    Grade resistance ``m g sin(slope)`` (seed 003 eq. 10-11) resolved on the body axes,
+    acting at the centre of gravity ``c``: its yaw moment about the body origin is
+    ``c_x F_y - c_y F_x``.
 
     Parameters
     ----------
@@ -746,15 +749,65 @@ def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float) -> np.ndarra
         Inclination of the plane, rad.
     yaw_rad : float
         Heading of the body on the plane, rad (0 = facing uphill).
+    cog_m : ndarray, shape (2,), optional
+        Centre of gravity in the body frame, m (:attr:`ContactGeometry.cog_m
+        <terrain.vehicles.common.ContactGeometry.cog_m>`); None: the body origin.
 
     Returns
     -------
     ndarray, shape (3,)
-        ``(F_x, F_y, M_z)``, N, N, N m.
+        ``(F_x, F_y, M_z)``, N, N, N m (``M_z`` about the body origin).
     """
     g_plane = G_M_S2 * np.sin(slope_rad)
     cy, sy = np.cos(yaw_rad), np.sin(yaw_rad)
-    return np.array([-mass_kg * g_plane * cy, mass_kg * g_plane * sy, 0.0])
+    f_x, f_y = -mass_kg * g_plane * cy, mass_kg * g_plane * sy
+    m_z = 0.0 if cog_m is None else float(cog_m[0] * f_y - cog_m[1] * f_x)
+    return np.array([f_x, f_y, m_z])
+
+
+def rigid_body_terms(mass_kg: float, yaw_inertia_kg_m2: float, cog_m: np.ndarray,
+                     twist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mass matrix and velocity terms of a planar rigid body, in the body-origin twist.
+
+    The state is the twist of the body origin ``V = (v_x, v_y, r)``; the mass sits at the
+    centre of gravity ``c`` (body frame). Newton at the c.o.g., ``m a_G = F`` with
+    ``a_G = dv/dt + r x v + dr/dt x c - r^2 c``, and Euler about it,
+    ``I_G dr/dt = M_O - c x F`` (``M_O``: moment of the forces about the origin), give
+    ``M dV/dt = F + q(V)`` with::
+
+        M = [[m, 0, -m c_y], [0, m, m c_x], [-m c_y, m c_x, I_G + m |c|^2]]
+        q = (m r v_y + m r^2 c_x, -m r v_x + m r^2 c_y, -m r (c_x v_x + c_y v_y))
+
+    (Greenwood, *Principles of Dynamics*, ch. 7: a rigid body about a point other than
+    its mass centre). With ``c = 0`` this is ``diag(m, m, I)`` and the Coriolis terms
+    ``(m r v_y, -m r v_x, 0)``.
+
+    Parameters
+    ----------
+    mass_kg : float
+        Mass, kg.
+    yaw_inertia_kg_m2 : float
+        Yaw inertia about the centre of gravity, kg m^2.
+    cog_m : ndarray, shape (2,)
+        Centre of gravity in the body frame, m.
+    twist : ndarray, shape (3,)
+        ``(v_x, v_y, r)`` of the body origin, m/s, m/s, rad/s.
+
+    Returns
+    -------
+    mass_matrix : ndarray, shape (3, 3)
+        ``M`` (kg, kg m, kg m^2).
+    velocity_terms : ndarray, shape (3,)
+        ``q(V)``, N, N, N m.
+    """
+    cx, cy = float(cog_m[0]), float(cog_m[1])
+    m = float(mass_kg)
+    vx, vy, r = (float(v) for v in twist)
+    mass_matrix = np.array([[m, 0.0, -m * cy], [0.0, m, m * cx],
+                            [-m * cy, m * cx, yaw_inertia_kg_m2 + m * (cx * cx + cy * cy)]])
+    terms = np.array([m * r * vy + m * r * r * cx, -m * r * vx + m * r * r * cy,
+                      -m * r * (cx * vx + cy * vy)])
+    return mass_matrix, terms
 
 
 def specific_force_m_s2(accel_body_m_s2: np.ndarray, gravity_force_n: np.ndarray,

@@ -343,3 +343,14 @@ class ContactGeometry:
     def n_motors(self) -> int:
         """Number of drive motors."""
         return len(self.motor_names)
+
+    @property
+    def cog_m(self) -> np.ndarray:
+        """Centre of gravity (x, y) in the body frame, shape (2,), m: the point the static
+        load shares balance, ``sum_i share_i p_i`` (statics on level ground: the weight
+        acts where the static loads put it). The simulator's rigid-body dynamics put the
+        mass there (:func:`terrain.sim.dynamics.integrate`). Components within 1e-12 m of
+        the origin are 0 (a symmetric layout's rounding)."""
+        cog = self.load_share @ self.positions_m
+        cog[np.abs(cog) < 1e-12] = 0.0
+        return cog

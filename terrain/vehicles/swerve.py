@@ -141,12 +141,15 @@ class AgriMaRoParams:
         """ASSUMED centre of gravity, shape (2,), m: centroid of the wheel triangle.
 
         The body origin lies on the edge between wheels 1 and 2, so a CoG there would leave
-        wheel 3 unloaded; the centroid gives equal static loads.
+        wheel 3 unloaded; the centroid gives equal static loads (:meth:`contact_geometry`,
+        whose ``cog_m``, the point those loads balance, is this one: the simulator puts
+        the mass there).
         """
         return self.positions.mean(axis=0)
 
     def contact_geometry(self) -> ContactGeometry:
-        """One contact per wheel (ch. 7.2 positions), one motor per wheel, equal static loads.
+        """One contact per wheel (ch. 7.2 positions), one motor per wheel, equal static loads
+        (the statics of the centre of gravity :attr:`cog_m`, the triangle's centroid).
 
         Returns
         -------

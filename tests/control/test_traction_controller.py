@@ -500,11 +500,15 @@ def test_the_agrimaro_controller_no_longer_acts_on_encoder_noise_on_the_slope():
     # 1.42 s): 0.037 -> 0.066 on this seed (a braking slip at 10.26 s), 0.032 -> 0.034 and
     # 0.034 -> 0.034 on seeds 1 and 2, energy per metre +1.0 to +2.5 %. With the filter's
     # acceleration state the mode was braking at that step, so the limiter left it (0.037).
+    # Since 2026-11-30 the AgriMaRo's mass sits at its c.o.g. (the wheel-triangle centroid,
+    # 0.252 m right of the origin), where gravity on the slope acts and about which it
+    # turns: the uncontrolled run's peak gated slip is 0.042 (0.037 with the mass at the
+    # origin), a move of the plant, not of the controller; the controller's bounds are kept.
     from terrain.control.closed_loop import run_closed_loop
 
     _, _, off = run_closed_loop("agrimaro", "TILES", "slope_turn", False, 0, duration_s=12.0)
     _, _, on = run_closed_loop("agrimaro", "TILES", "slope_turn", True, 0, duration_s=12.0)
-    assert off["peak_slip_gated"] < 0.04
+    assert off["peak_slip_gated"] < 0.045
     assert on["peak_slip_gated"] < 0.07                  # 0.869 with the thesis's threshold
     assert on["energy_j_per_m"] <= 1.03 * off["energy_j_per_m"]
 

@@ -24,16 +24,13 @@ def test_random_omnidirectional_speed_is_capped_per_component_not_as_a_resultant
     assert speed.max() <= 0.95 * np.sqrt(1.25) + 1e-12
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "the AgriMaRo's mass sits at the body origin (terrain.sim.dynamics: 'mass concentrated "
-    "at the body origin') while its static loads are the wheel triangle centroid's (equal "
-    "thirds, AgriMaRoParams.cog_m): the traction that accelerates the body acts at wheel 3, "
-    "0.756 m right of the origin, and yaws it; not fixed as it moves every AgriMaRo run"))
 def test_agrimaro_driving_straight_on_level_ground_does_not_yaw():
     """A straight run on level ground has zero yaw rate. The AgriMaRo with no steering error
-    (all units at 0), ramping at 1 m/s^2 to 1 m/s on TILES, turns left by 0.0025 rad in
-    10 s (peak yaw rate 0.0034 rad/s, 2.3 cm to the left); the Husky and the tracked vehicle
-    stay at zero to rounding."""
+    (all units at 0), ramping at 1 m/s^2 to 1 m/s on TILES, turned left by 0.0025 rad in
+    10 s (peak yaw rate 0.0034 rad/s, 2.3 cm to the left) while its mass sat at the body
+    origin and its static loads were the wheel-triangle centroid's (fixed 2026-11-30: the
+    mass sits at ContactGeometry.cog_m, AgriMaRoParams.cog_m); the Husky and the tracked
+    vehicle stay at zero to rounding."""
     v = get_vehicle("agrimaro")
     t = np.arange(1001) * 0.01
     tw = np.zeros((len(t), 3))
@@ -324,3 +321,32 @@ def test_a_skid_steer_reversing_through_a_turn_gives_the_mirrored_run(vehicle, t
     np.testing.assert_allclose(
         reported_current_a(veh.motor, back.torque, back.omega, physics),
         reported_current_a(veh.motor, fwd.torque, fwd.omega, physics), atol=1e-7)
+
+
+def test_every_vehicle_s_static_loads_balance_at_its_centre_of_gravity():
+    """One c.o.g.: the point the static load shares balance (ContactGeometry.cog_m, where the
+    simulator puts the mass) is the AgriMaRo's assumed one (AgriMaRoParams.cog_m, the wheel
+    triangle's centroid, 0.252 m right of the origin) and the origin for the skid-steers."""
+    agrimaro = get_vehicle("agrimaro")
+    np.testing.assert_allclose(agrimaro.contact_geometry().cog_m, agrimaro.cog_m, atol=1e-12)
+    np.testing.assert_allclose(agrimaro.cog_m, [0.0, -0.252], atol=1e-12)
+    for name in ("husky", "tracked"):
+        np.testing.assert_array_equal(get_vehicle(name).contact_geometry().cog_m, 0.0)
+
+
+def test_rigid_body_terms_are_newton_and_euler_at_the_centre_of_gravity():
+    """M dV/dt = F + q(V) for the body-origin twist equals m a_G = F and
+    I_G dr/dt = M_O - c x F at the c.o.g. (random values)."""
+    from terrain.sim.forces import rigid_body_terms
+    rng = np.random.default_rng(0)
+    m, i_g = 150.0, 20.0
+    c = rng.normal(size=2)
+    v = rng.normal(size=3)
+    f = rng.normal(size=3) * 100.0
+    mass_matrix, q = rigid_body_terms(m, i_g, c, v)
+    dv = np.linalg.solve(mass_matrix, f + q)
+    vx, vy, r = v
+    a_g = np.array([dv[0] - r * vy - dv[2] * c[1] - r * r * c[0],
+                    dv[1] + r * vx + dv[2] * c[0] - r * r * c[1]])
+    np.testing.assert_allclose(m * a_g, f[:2], rtol=1e-10)
+    assert i_g * dv[2] == pytest.approx(f[2] - (c[0] * f[1] - c[1] * f[0]), rel=1e-10)
