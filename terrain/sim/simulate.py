@@ -412,6 +412,38 @@ def motor_currents(phys: PhysicsResult, vehicle, effects: Effects, physics: str 
     return cur
 
 
+def steering_offsets(vehicle, geometry, seed: int) -> np.ndarray | None:
+    """The robot's constant steering errors inside the dead band (seed 001 ch. 6.1.1).
+
+    A property of the robot, not of the drive: drawn uniformly in ``[-d, d]`` (``d`` the
+    vehicle's ``steering_dead_band_rad``) from a generator of their own, the first child
+    of the run seed's :class:`numpy.random.SeedSequence` (the run's generator, which draws
+    the scenario and the sensor noise, is the seed's own stream), so every run of one seed,
+    whatever its scenario or duration, drives the same robot. Until 2026-11-30 they were
+    drawn from the run's generator after the random scenario's segments, whose number
+    depends on the duration.
+
+    Parameters
+    ----------
+    vehicle : AgriMaRoParams or HuskyParams or TrackedParams
+        Vehicle (its ``steering_dead_band_rad``).
+    geometry : ContactGeometry
+        Its contact geometry.
+    seed : int
+        Run seed.
+
+    Returns
+    -------
+    ndarray, shape (n_motors,), or None
+        Offsets, rad; None for a vehicle that does not steer.
+    """
+    if not geometry.steered:
+        return None
+    rng = np.random.default_rng(np.random.SeedSequence(int(seed)).spawn(1)[0])
+    db = vehicle.steering_dead_band_rad
+    return rng.uniform(-db, db, geometry.n_motors)
+
+
 def simulate(config: SimConfig) -> Run:
     """Simulate one run.
 
@@ -467,10 +499,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
     cmds = make_commands(config.scenario, float(config.duration_s), dt, rng, vmax,
                          omnidirectional=geometry.steered,
                          track_m=0.0 if geometry.steered else vehicle.track_m)
-    steer_offset = None
-    if geometry.steered:
-        db = vehicle.steering_dead_band_rad
-        steer_offset = rng.uniform(-db, db, geometry.n_motors)   # seed 001 ch. 6.1.1
+    steer_offset = steering_offsets(vehicle, geometry, int(config.seed))
     chi = 1.0 if geometry.steered else config.effects.icr_expansion
     phys = integrate(vehicle, geometry, terrains, config.segment_length_m, cmds.t_s,
                      cmds.twist, cmds.slope_rad, chi, steer_offset, hook=hook,
