@@ -218,7 +218,10 @@ class AgriMaRoVisualOdometryEKF:
         self.model = AgriMaRoModel(self.vehicle, noise_derived_settings(
             accel_std_m_s2=accel_std_m_s2))
         m = self.model
-        self.ekf = ExtendedKalmanFilter(m.x0, m.P0, m.f, m.F, m.h, m.H, m.Q, m.R_diag)
+        # the model's residual wraps the angle rows (the steering encoders read within one
+        # turn)
+        self.ekf = ExtendedKalmanFilter(m.x0, m.P0, m.f, m.F, m.h, m.H, m.Q, m.R_diag,
+                                        residual=m.residual)
         # the filter's time: that of its first sample (None before), not 0 s: a log stamped
         # from 1000 s began with one prediction over 1000 s, one stamped before 0 s was never
         # predicted until its clock passed 0

@@ -81,9 +81,10 @@ STATE_NAMES: tuple[str, ...] = ("x", "y", "yaw", "v_bx", "v_by", "yaw_rate", "a_
 MEASUREMENT_NAMES: tuple[str, ...] = ("omega_1", "omega_2", "omega_3", "ax", "ay", "wz",
                                       "yaw_imu", "delta_1", "delta_2", "delta_3", "v_cx",
                                       "v_cy", "yaw_rate_c", "yaw_c")
-#: Rows of :data:`MEASUREMENT_NAMES` that are angles (``yaw_imu``, ``yaw_c``), rad: wrapped
-#: in the innovation and averaged unwrapped by the pre-filter (:func:`ema_filter`).
-ANGLE_ROWS: tuple[int, ...] = (6, 13)
+#: Rows of :data:`MEASUREMENT_NAMES` that are angles (``yaw_imu``, the steering encoders
+#: ``delta_1..3``, absolute encoders read within one turn, and ``yaw_c``), rad: wrapped in the
+#: innovation and averaged unwrapped by the pre-filter (:func:`ema_filter`).
+ANGLE_ROWS: tuple[int, ...] = (6, 7, 8, 9, 13)
 SENSOR_ROWS: Mapping[str, tuple[int, ...]] = MappingProxyType(
     {"omega": (0, 1, 2), "imu": (3, 4, 5, 6), "steer": (7, 8, 9), "cam": (10, 11, 12, 13)})
 #: Columns of each sensor in a :class:`~terrain.run.Run` (stream, columns); ``yaw_imu`` is

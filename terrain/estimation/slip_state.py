@@ -94,7 +94,8 @@ class SlipStateModel(KernelModel):
     measurement_names : tuple of str
         10 rows, 14 with the camera.
     angle_rows : tuple of int
-        ``yaw_imu`` (6) and, with the camera, ``yaw_c`` (13).
+        ``yaw_imu`` (6), the steering encoders ``delta_1..3`` (7-9, read within one turn)
+        and, with the camera, ``yaw_c`` (13).
 
     Raises
     ------
@@ -114,7 +115,7 @@ class SlipStateModel(KernelModel):
     q_per: str = "step"
     state_names: tuple[str, ...] = field(default=STATE_NAMES, init=False)
     measurement_names: tuple[str, ...] = field(default=(), init=False)
-    angle_rows: tuple[int, ...] = field(default=(6,), init=False)
+    angle_rows: tuple[int, ...] = field(default=(6, 7, 8, 9), init=False)
     transition_kernel = staticmethod(transition_into)
     observation_kernel = staticmethod(slip_state_observation_into)
 
@@ -137,7 +138,7 @@ class SlipStateModel(KernelModel):
                  "delta_2", "delta_3"]
         if self.camera:
             names += ["v_cx", "v_cy", "yaw_rate_c", "yaw_c"]
-            object.__setattr__(self, "angle_rows", (6, 13))
+            object.__setattr__(self, "angle_rows", (6, 7, 8, 9, 13))
         object.__setattr__(self, "measurement_names", tuple(names))
         r = self.r_diag if self.r_diag is not None else (
             THESIS_R_CH4 + (CAMERA_R if self.camera else ()))

@@ -45,7 +45,7 @@ from terrain.errors import ConfigError, config_positive, config_seed
 from terrain.sim.dynamics import ControlHook, PlantSnapshot
 from terrain.sim.forces import check_physics, reported_current_a
 from terrain.sim.sensors import (SensorSettings, coloured_noise, gravity_specific_force,
-                                 quantise, vibration_level, vibration_pole,
+                                 quantise, steering_encoder, vibration_level, vibration_pole,
                                  vibration_signals)
 from terrain.sim.simulate import (DEFAULT_SENSORS, SimConfig, Simulation, is_name_sequence,
                                   simulate_with_physics)
@@ -282,8 +282,9 @@ class OnlineSensors:
             return
         c = self.ch["steer"]
         if c.due(t_run, tol):
-            # (a resolution of 0 is no quantisation, as in the batch model)
-            d = quantise(snap.delta, s.steer_quantum_rad)
+            # absolute encoders, within one turn (a resolution of 0 is no quantisation, as
+            # in the batch model)
+            d = steering_encoder(snap.delta, s.steer_quantum_rad)
             c.rows.append((t, *d.tolist()))
         c = self.ch["cam"]
         if c.due(t_run, tol):

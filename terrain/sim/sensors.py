@@ -15,6 +15,7 @@ from scipy.signal import lfilter
 from terrain.errors import ConfigError, config_numbers, config_positive
 from terrain.run import step_index
 from terrain.terramechanics.resistance import G_M_S2
+from terrain.vehicles.common import wrap_angle
 
 #: sampling-rate fields of :class:`SensorSettings`, Hz
 RATE_FIELDS = ("imu_rate_hz", "wheel_rate_hz", "steer_rate_hz", "cam_rate_hz", "truth_rate_hz")
@@ -416,6 +417,33 @@ def imu(phys, terrains, settings: SensorSettings, gyro_bias_rad_s: float,
     data[:, 4] = aby + g_y + vib[:, 3] + bias[1] + settings.accel_noise_m_s2 * noise[:, 4]
     data[:, 5] = g_z + vib[:, 4] + bias[2] + settings.accel_noise_m_s2 * noise[:, 5]
     return t, data
+
+
+def steering_encoder(delta_rad: np.ndarray, quantum_rad: float) -> np.ndarray:
+    """Reading of an absolute steering encoder: the module angle within one turn, quantised.
+
+    The encoder (12-bit absolute ASSUMED, :class:`SensorSettings`) reads the shaft position
+    in one turn, not the turns the module has made: ``wrap_angle(quantise(delta))``,
+    in [-pi, pi) (:func:`terrain.vehicles.common.wrap_angle`, the project's convention;
+    a reading already in that range is returned as it is, not re-rounded).
+    Consumers that interpolate or average the angle unwrap it (the AgriMaRo filters wrap
+    the steering innovations and the pre-filter averages them unwrapped,
+    :data:`terrain.estimation.agrimaro.ANGLE_ROWS`).
+
+    Parameters
+    ----------
+    delta_rad : ndarray, any shape
+        True (unwrapped) steering angles, rad.
+    quantum_rad : float
+        Encoder resolution, rad (0: no quantisation).
+
+    Returns
+    -------
+    ndarray
+        Same shape, rad, in [-pi, pi).
+    """
+    d = quantise(np.asarray(delta_rad, dtype=float), quantum_rad)
+    return np.where((d >= -np.pi) & (d < np.pi), d, wrap_angle(d))
 
 
 def quantise(x: np.ndarray, quantum: float) -> np.ndarray:

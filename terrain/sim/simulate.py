@@ -15,7 +15,8 @@ Streams (file columns in brackets where the file names them differently):
            :data:`terrain.sim.forces.SLIP_SPEED_FLOOR_M_S`, keeps it linear near standstill:
            a 0.01 m/s speed difference at rest is slip 0.5, not 1); pitch nose-up positive;
            terrain label.
-``steer``  ``t_s, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro)
+``steer``  ``t_s, delta_1, delta_2, delta_3`` steering encoders, rad (agrimaro): absolute
+           encoders, each module's angle within one turn, [-pi, pi)
 ``cam``    ``t_s, v_cx, v_cy, yaw_rate_c, yaw_c`` T265 at its mount, velocities of the camera
            point in robot axes (x forward, y left; before the eq. 5.4 lever-arm correction),
            m/s, rad/s, rad; rows missing during outages (agrimaro; metadata
@@ -53,7 +54,8 @@ from terrain.sim.forces import DEFAULT_PHYSICS, check_physics, reported_current_
 from terrain.sim.scenarios import (SCENARIO_NAMES, SCENARIO_SLOPES_RAD, make_commands,
                                    physics_steps)
 from terrain.sim.sensors import (SensorSettings, encoder_count_rate, first_order_filter, imu,
-                                 interp_columns, physics_step_index, quantise, sample_times)
+                                 interp_columns, physics_step_index, quantise, sample_times,
+                                 steering_encoder)
 from terrain.terramechanics.catalogue import get_terrain
 from terrain.vehicles import get_vehicle, point_velocity
 
@@ -553,7 +555,8 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
 
     if geometry.steered:
         t_st = sample_times(duration, sensors.steer_rate_hz)
-        d = quantise(interp_columns(t_st, phys.t_s, phys.delta), sensors.steer_quantum_rad)
+        d = steering_encoder(interp_columns(t_st, phys.t_s, phys.delta),
+                             sensors.steer_quantum_rad)
         streams["steer"] = pd.DataFrame(
             {TIME: t_st, **{f"delta_{i + 1}": d[:, i] for i in range(geometry.n_motors)}})
         t_c = sample_times(duration, sensors.cam_rate_hz)

@@ -13,6 +13,7 @@ import pytest
 from terrain.errors import ConfigError
 from terrain.sim import DEFAULT_SENSORS, SimConfig, simulate
 from terrain.sim.closed_loop import OnlineSensors, make_hook, simulate_closed_loop
+from terrain.sim.simulate import simulate_with_physics
 from terrain.sim.dynamics import PhysicsResult, PlantSnapshot
 from terrain.sim.effects import Effects
 from terrain.sim.sensors import (SensorSettings, coloured_noise, imu, sample_times,
@@ -177,12 +178,44 @@ def test_wheel_lag_holds_the_first_value_until_the_lag_has_passed():
     assert np.all(np.diff(lagged.loc[~early, "vel_l"]) > 0) and lagged["vel_l"].iloc[7] > 0
 
 
-@pytest.mark.xfail(strict=True, raises=AssertionError, reason=(
-    "known modelling gap, left because wrapping would move every simulated AgriMaRo steer "
-    "stream: SensorSettings calls the steering encoder a 12-bit absolute encoder, whose "
-    "reading lies within one turn, but the steer stream reports the unwrapped module angle "
-    "(random scenario, seed 3: past pi at 14.92 s, 3.69 rad by 16 s, 11.48 rad by 60 s)"))
 def test_the_steering_encoders_read_within_one_turn():
-    run = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=16.0, seed=3))
-    delta = run.streams["steer"][["delta_1", "delta_2", "delta_3"]].to_numpy()
-    assert np.all(np.abs(delta) <= np.pi)
+    # SensorSettings calls the steering encoder a 12-bit absolute encoder, whose reading lies
+    # within one turn; until 2026-11-30 the steer stream reported the unwrapped module angle
+    # (random scenario, seed 3: past pi at 14.92 s, 3.69 rad by 16 s, 11.48 rad by 60 s)
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", scenario="random",
+                                          duration_s=16.0, seed=3))
+    delta = sim.run.streams["steer"][["delta_1", "delta_2", "delta_3"]].to_numpy()
+    assert np.all(delta >= -np.pi) and np.all(delta < np.pi)
+    assert np.abs(sim.physics.delta).max() > np.pi         # a module did pass pi
+    # the reading is the true angle within one turn, to the encoder's resolution
+    t = sim.run.streams["steer"]["t_s"].to_numpy()
+    true = np.column_stack([np.interp(t, sim.physics.t_s, sim.physics.delta[:, i])
+                            for i in range(3)])
+    q = DEFAULT_SENSORS["agrimaro"].steer_quantum_rad
+    err = np.angle(np.exp(1j * (delta - true)))
+    assert np.abs(err).max() <= 0.5 * q + 1e-9
+
+
+def test_the_agrimaro_estimate_is_as_good_when_its_modules_pass_pi():
+    # the filter wraps the steering innovations and its pre-filter averages the encoder
+    # unwrapped (ANGLE_ROWS): on a run whose modules pass pi, the estimate from the wrapped
+    # encoders equals the one from the unwrapped angles the stream held before 2026-11-30
+    from dataclasses import replace as dc_replace
+
+    from terrain.estimation.agrimaro import estimate_agrimaro
+    sim = simulate_with_physics(SimConfig(vehicle="agrimaro", scenario="random",
+                                          duration_s=30.0, seed=3))
+    run = sim.run
+    steer = run.streams["steer"]
+    unwrapped = steer.assign(**{c: np.unwrap(steer[c].to_numpy()) for c in
+                                ("delta_1", "delta_2", "delta_3")})
+    assert np.abs(unwrapped[["delta_1", "delta_2", "delta_3"]].to_numpy()).max() > 4.0
+    old = dc_replace(run, streams={**run.streams, "steer": unwrapped})
+    truth = run.streams["truth"]
+    errors = []
+    for r in (run, old):
+        ekf = estimate_agrimaro(r)
+        v = np.interp(truth["t_s"], ekf.t_s, ekf.state("v_bx"))
+        errors.append(np.sqrt(np.mean((v - truth["v_bx"].to_numpy()) ** 2)))
+    assert errors[0] == pytest.approx(errors[1], rel=1e-6, abs=1e-9)
+    assert errors[0] < 0.1
