@@ -610,7 +610,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
     # the mass at the centre of gravity the static loads balance (the body origin for a
     # symmetric layout), in the body-origin twist
     cog = geometry.cog_m
-    m_mat, _ = rigid_body_terms(mass, vehicle.yaw_inertia_kg_m2, cog, np.zeros(3))
+    m_mat, transport = rigid_body_terms(mass, vehicle.yaw_inertia_kg_m2, cog)
     m_inv = np.linalg.inv(m_mat)
     # contact positions about the centre of gravity (the load transfer's lever arms)
     x_cg, y_cg = layout.x_m - cog[0], layout.y_m - cog[1]
@@ -710,8 +710,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         gravity = gravity_force(mass, slope_rad, pose[2], cog)
         # transport (Coriolis, centripetal) terms of the body-frame equations about the
         # origin: m (dv_x/dt - r v_y) = F_x ... for a mass at the origin
-        force = contact.force + gravity + rigid_body_terms(mass, vehicle.yaw_inertia_kg_m2,
-                                                           cog, vel)[1]
+        force = contact.force + gravity
+        force += (mass * vel[2]) * (transport @ vel)
         # traction slopes over the slip the step can reach (the explicit step's) where the
         # curve has flattened; the tyre's combined-slip law keeps its own (contact.slip None)
         if contact.slip is not None:

@@ -765,8 +765,8 @@ def gravity_force(mass_kg: float, slope_rad: float, yaw_rad: float,
     return np.array([f_x, f_y, m_z])
 
 
-def rigid_body_terms(mass_kg: float, yaw_inertia_kg_m2: float, cog_m: np.ndarray,
-                     twist: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rigid_body_terms(mass_kg: float, yaw_inertia_kg_m2: float, cog_m: np.ndarray
+                     ) -> tuple[np.ndarray, np.ndarray]:
     """Mass matrix and velocity terms of a planar rigid body, in the body-origin twist.
 
     The state is the twist of the body origin ``V = (v_x, v_y, r)``; the mass sits at the
@@ -776,11 +776,13 @@ def rigid_body_terms(mass_kg: float, yaw_inertia_kg_m2: float, cog_m: np.ndarray
     ``M dV/dt = F + q(V)`` with::
 
         M = [[m, 0, -m c_y], [0, m, m c_x], [-m c_y, m c_x, I_G + m |c|^2]]
-        q = (m r v_y + m r^2 c_x, -m r v_x + m r^2 c_y, -m r (c_x v_x + c_y v_y))
+        q = m r T V,  T = [[0, 1, c_x], [-1, 0, c_y], [-c_x, -c_y, 0]]
 
-    (Greenwood, *Principles of Dynamics*, ch. 7: a rigid body about a point other than
-    its mass centre). With ``c = 0`` this is ``diag(m, m, I)`` and the Coriolis terms
-    ``(m r v_y, -m r v_x, 0)``.
+    i.e. ``q = (m r v_y + m r^2 c_x, -m r v_x + m r^2 c_y, -m r (c_x v_x + c_y v_y))``
+    (Greenwood, *Principles of Dynamics*, ch. 7: a rigid body about a point other than its
+    mass centre). With ``c = 0`` this is ``diag(m, m, I)`` and the Coriolis terms
+    ``(m r v_y, -m r v_x, 0)``. Both matrices are constant over a run: the integrator
+    builds them once and evaluates ``q`` as ``(m r) (T @ V)`` every step.
 
     Parameters
     ----------
@@ -790,24 +792,20 @@ def rigid_body_terms(mass_kg: float, yaw_inertia_kg_m2: float, cog_m: np.ndarray
         Yaw inertia about the centre of gravity, kg m^2.
     cog_m : ndarray, shape (2,)
         Centre of gravity in the body frame, m.
-    twist : ndarray, shape (3,)
-        ``(v_x, v_y, r)`` of the body origin, m/s, m/s, rad/s.
 
     Returns
     -------
     mass_matrix : ndarray, shape (3, 3)
         ``M`` (kg, kg m, kg m^2).
-    velocity_terms : ndarray, shape (3,)
-        ``q(V)``, N, N, N m.
+    transport : ndarray, shape (3, 3)
+        ``T`` (1, m): the velocity terms are ``m r (T @ V)``, N, N, N m.
     """
     cx, cy = float(cog_m[0]), float(cog_m[1])
     m = float(mass_kg)
-    vx, vy, r = (float(v) for v in twist)
     mass_matrix = np.array([[m, 0.0, -m * cy], [0.0, m, m * cx],
                             [-m * cy, m * cx, yaw_inertia_kg_m2 + m * (cx * cx + cy * cy)]])
-    terms = np.array([m * r * vy + m * r * r * cx, -m * r * vx + m * r * r * cy,
-                      -m * r * (cx * vx + cy * vy)])
-    return mass_matrix, terms
+    transport = np.array([[0.0, 1.0, cx], [-1.0, 0.0, cy], [-cx, -cy, 0.0]])
+    return mass_matrix, transport
 
 
 def specific_force_m_s2(accel_body_m_s2: np.ndarray, gravity_force_n: np.ndarray,
