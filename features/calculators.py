@@ -41,11 +41,11 @@ def _statistics_kernel(x, codes, out):   # pragma: no cover - compiled
     m, n = x.shape
     for r in range(m):
         total = total_sq = total_abs_diff = 0.0
-        lo = hi = x[r, 0]
+        x0 = lo = hi = x[r, 0]
         has_nan = False
         for i in range(n):
             v = x[r, i]
-            total += v
+            total += v - x0   # offsets from the first sample: the level is not rounded
             total_sq += v * v
             if v < lo:
                 lo = v
@@ -55,20 +55,27 @@ def _statistics_kernel(x, codes, out):   # pragma: no cover - compiled
                 has_nan = True
             if i > 0:
                 total_abs_diff += abs(v - x[r, i - 1])
-        mu = total / n
-        m2 = m3 = m4 = 0.0
+        mu = x0 + total / n
+        dm = s2 = s3 = s4 = 0.0
         for i in range(n):
             d = x[r, i] - mu
             d2 = d * d
-            m2 += d2
-            m3 += d2 * d
-            m4 += d2 * d2
-        m2, m3, m4 = m2 / n, m3 / n, m4 / n
+            dm += d
+            s2 += d2
+            s3 += d2 * d
+            s4 += d2 * d2
+        # moments about the exact mean mu + dm from those about the rounded mu (the
+        # corrected two-pass algorithm, Chan, Golub & LeVeque 1983, Am. Stat. 37(3))
+        dm, s2, s3, s4 = dm / n, s2 / n, s3 / n, s4 / n
+        mean = mu + dm
+        m2 = max(s2 - dm * dm, 0.0)
+        m3 = s3 - 3.0 * dm * s2 + 2.0 * dm * dm * dm
+        m4 = s4 - 4.0 * dm * s3 + 6.0 * dm * dm * s2 - 3.0 * dm * dm * dm * dm
         varies = m2 > _EPS
         for k in range(codes.shape[0]):
             c = codes[k]
             if c == 0:
-                val = mu
+                val = mean
             elif c == 1:
                 val = np.sqrt(m2)
             elif c == 2:
