@@ -18,15 +18,10 @@ from features.transformers import WindowFeatures
 
 MOMENTS = ("mean", "std", "skewness", "kurtosis")
 
-#: The statistics kernel rounds the window mean in a plain running sum (up to n ulps of the
-#: signal's level), an offset its central moments read as spread. Summing offsets from the
-#: first sample and correcting the moments to the exact mean fixes it (tried, 5 % slower),
-#: but the ulp changes of every window's mean moved a measured result
-#: (tests/slip/test_learned_slip.py::test_learned_model_on_held_out_seed: a held-out median
-#: error 0.0200 -> 0.020015 over its 0.02 bound), so it is left as it is.
-ROUNDED_MEAN = pytest.mark.xfail(strict=True, reason=(
-    "the statistics' mean is a plain running sum: a large level leaves a rounding offset "
-    "the central moments read as spread (a fix moved a measured slip-model result)"))
+# The statistics kernel summed the window mean in a plain running sum (up to n ulps of the
+# signal's level), an offset its central moments read as spread; since 2026-11-30 it sums
+# offsets from the first sample and corrects the moments to the exact mean (these tests were
+# strict xfails until then; docs/slip_learning.md says what the fix moved).
 
 
 def _reference_moments(x: np.ndarray) -> np.ndarray:
