@@ -929,9 +929,9 @@ def reported_current_a(motor, wheel_torque_nm: np.ndarray, omega_rad_s: np.ndarr
     check_physics(physics)
     if physics == "v1":
         return np.abs(motor.current_from_torque(wheel_torque_nm, omega_rad_s))
-    direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
+    direction = motor.rotation_direction(omega_rad_s)
     drive = np.asarray(wheel_torque_nm, dtype=float) * np.sign(direction)
-    k = motor.gear_ratio * motor.torque_constant_nm_per_a * motor.efficiency
+    k = motor.wheel_torque_per_amp_nm
     moving = np.abs(direction)
     motoring = np.maximum(drive, 0.0) / k
     # at rest (direction 0) the torque that holds the wheel is reported as is

@@ -134,7 +134,7 @@ def husky_hysteresis_for_current(terrain, current_a: float, speed_m_s: float,
     rim = speed_m_s / (1.0 - s) if s < 1.0 else math.inf
     # the motor law is affine in the torque: the current above its no-load part buys torque
     no_load = float(m.current_from_torque(0.0, rim / h.wheel_radius_m))
-    nm_per_a = m.gear_ratio * m.torque_constant_nm_per_a * m.efficiency
+    nm_per_a = m.wheel_torque_per_amp_nm
     torque = (current_a - no_load) * nm_per_a
     if torque < h.wheel_radius_m * side_load * mu:
         # a negative loss would be needed: 0 is returned, as documented, but no longer

@@ -196,9 +196,30 @@ class MotorParams:
             Signed motor current, A.
         """
         torque = np.asarray(wheel_torque_nm, dtype=float)
-        direction = np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
-        return (self.no_load_current_a * direction
-                + torque / (self.gear_ratio * self.torque_constant_nm_per_a * self.efficiency))
+        return (self.no_load_current_a * self.rotation_direction(omega_rad_s)
+                + torque / self.wheel_torque_per_amp_nm)
+
+    @property
+    def wheel_torque_per_amp_nm(self) -> float:
+        """Wheel torque per ampere of motor current, ``G k_t eta``, N m/A (the torque term
+        of :meth:`current_from_torque` is ``T / (G k_t eta)``)."""
+        return self.gear_ratio * self.torque_constant_nm_per_a * self.efficiency
+
+    @staticmethod
+    def rotation_direction(omega_rad_s: np.ndarray) -> np.ndarray:
+        """The sign of the wheel speed, smoothed over 0.05 rad/s: ``tanh(omega / 0.05)``
+        (dimensionless, in [-1, 1]; 0 at standstill), which the no-load current follows.
+
+        Parameters
+        ----------
+        omega_rad_s : ndarray, shape (...)
+            Wheel angular speed, rad/s.
+
+        Returns
+        -------
+        ndarray, shape (...)
+        """
+        return np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
 
     def drive_power_w(self, current_a: np.ndarray, omega_rad_s: np.ndarray) -> np.ndarray:
         """Electrical power a PWM drive delivers to the motor, W.
