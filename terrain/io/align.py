@@ -117,6 +117,61 @@ def _grid_span(times_s: Sequence[np.ndarray], rate_hz: float,
     return t0, n
 
 
+def _check_tail(owner: str, n_last, name: str, time_s, finite: bool) -> None:
+    """ConfigError unless ``n_last`` is an integer >= 0 and ``time_s`` a number, not NaN
+    (and finite where ``finite``); the arguments of the grid-tail functions."""
+    config_integer(f"{owner}.n_last", n_last, 0)
+    config_numbers(owner, **{name: time_s})
+    if np.isnan(time_s) or (finite and not np.isfinite(time_s)):
+        raise ConfigError(f"{owner}.{name} must be a {'finite ' if finite else ''}time, got "
+                          f"{time_s!r}")
+
+
+def overlap_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, before_s: float,
+                      n_last: int) -> tuple[np.ndarray, int]:
+    """The last points of :func:`overlap_grid` earlier than a time, without building it.
+
+    A stream service aligns one window at a time; building the whole grid over a long
+    timestamp gap costs its length times the rate, for every window inside the gap.
+
+    Parameters
+    ----------
+    times_s : sequence of numpy.ndarray
+        As for :func:`overlap_grid`.
+    rate_hz : float
+        Rate of the clock, Hz (> 0).
+    before_s : float
+        Only grid points ``< before_s`` count, s.
+    n_last : int
+        How many of them, at most, to return (the latest).
+
+    Returns
+    -------
+    tail : numpy.ndarray
+        ``(min(n_last, end),)`` the points ``grid[end - n_last:end]``, equal to the values
+        of ``overlap_grid(times_s, rate_hz)``, s.
+    end : int
+        Number of grid points ``< before_s`` (0 when the spans do not overlap).
+
+    Raises
+    ------
+    ConfigError
+        If ``rate_hz`` is not a finite number > 0, ``before_s`` not a number (NaN
+        included; -inf and inf give none and all points), or ``n_last`` not an integer
+        >= 0 (2.5 gave points between the grid's).
+    """
+    t0, n = _grid_span(times_s, rate_hz, "overlap_grid_tail")
+    # (int(ceil(nan)) was a bare ValueError, of inf OverflowError)
+    _check_tail("overlap_grid_tail", n_last, "before_s", before_s, finite=False)
+    # first k with t0 + k / rate >= before_s, on the grid's own float arithmetic
+    end = int(np.ceil(np.clip((before_s - t0) * rate_hz, 0, n)))
+    while end > 0 and t0 + (end - 1) / rate_hz >= before_s:
+        end -= 1
+    while end < n and t0 + end / rate_hz < before_s:
+        end += 1
+    return t0 + np.arange(max(end - n_last, 0), end) / rate_hz, end
+
+
 def anchored_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, anchor_s: float,
                        n_last: int) -> tuple[np.ndarray, int]:
     """The last points of a clock at ``rate_hz`` through ``anchor_s``, inside the overlap.
@@ -157,11 +212,7 @@ def anchored_grid_tail(times_s: Sequence[np.ndarray], rate_hz: float, anchor_s: 
         ``n_last`` not an integer >= 0.
     """
     t0, n = _grid_span(times_s, rate_hz, "anchored_grid_tail")
-    config_integer("anchored_grid_tail.n_last", n_last, 0)
-    config_numbers("anchored_grid_tail", anchor_s=anchor_s)
-    if not np.isfinite(anchor_s):
-        raise ConfigError(f"anchored_grid_tail.anchor_s must be a finite time, got "
-                          f"{anchor_s!r}")
+    _check_tail("anchored_grid_tail", n_last, "anchor_s", anchor_s, finite=True)
     t1 = min(float(t[-1]) for t in times_s)
     # a point within the clock's rounding of the span's ends is inside it (the window that
     # starts at a stream's first sample starts there whichever way anchor - k / rate rounds;

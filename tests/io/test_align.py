@@ -10,7 +10,7 @@ from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError
 from terrain.io.align import (align_arrays, align_streams, interpolated_mean_count, median_step,
-                              overlap_grid)
+                              overlap_grid, overlap_grid_tail)
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS
 
 
@@ -275,6 +275,31 @@ def test_interpolated_mean_count_limits():
     assert interpolated_mean_count(1, 50.0, 6.5) >= 1.0
     with pytest.raises(ConfigError):
         interpolated_mean_count(0, 50.0, 6.5)
+
+
+@given(st.floats(0.0, 5.0), st.floats(0.5, 60.0), st.sampled_from([6.5, 10.0, 50.0, 100.0]),
+       st.floats(-2.0, 70.0), st.integers(1, 300))
+@settings(max_examples=200, deadline=None)
+def test_overlap_grid_tail_is_the_whole_grids_tail(t0, span, rate_hz, before_s, n_last):
+    times = [t0 + np.linspace(0.0, span, 7), np.array([t0 - 1.0, t0 + span / 2, t0 + span])]
+    grid = overlap_grid(times, rate_hz)
+    tail, end = overlap_grid_tail(times, rate_hz, before_s, n_last)
+    want_end = int(np.searchsorted(grid, before_s, side="left"))
+    assert end == want_end
+    np.testing.assert_array_equal(tail, grid[max(want_end - n_last, 0):want_end])
+    assert overlap_grid_tail([np.arange(5.0), 10 + np.arange(5.0)], 10.0, 20.0, 3)[1] == 0
+
+
+@pytest.mark.parametrize("t0, rate_hz", [(0.0, 50.0), (0.1, 50.0), (0.37, 6.5), (1.3, 100.0)])
+def test_overlap_grid_tail_before_a_grid_point_excludes_it(t0, rate_hz):
+    """``before_s`` equal to grid point ``k`` (as the grid's own float arithmetic gives it)
+    counts the ``k`` points before it, never the point itself."""
+    times = [t0 + np.linspace(0.0, 3.0, 7)]
+    grid = overlap_grid(times, rate_hz)
+    for k in range(grid.size):
+        tail, end = overlap_grid_tail(times, rate_hz, float(grid[k]), 2)
+        assert end == k
+        np.testing.assert_array_equal(tail, grid[max(k - 2, 0):k])
 
 
 def _numpy_align_oracle(t, v, grid, gap_s):

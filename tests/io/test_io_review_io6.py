@@ -6,7 +6,7 @@ import pandas as pd
 import pytest
 
 from terrain.errors import ConfigError
-from terrain.io.align import anchored_grid_tail
+from terrain.io.align import overlap_grid, overlap_grid_tail
 from terrain.io.measured import read_runs_dir, read_runs_path
 from terrain.io.plausibility import STUCK_IMU_S, STUCK_MIN_SAMPLES, stuck_stretches
 from terrain.io.report import input_report
@@ -45,21 +45,21 @@ def test_reader_flags_take_booleans(tmp_path, reader):
 
 
 @pytest.mark.parametrize("n_last", [2.5, True, -1, "3", None])
-def test_the_grid_tail_refuses_a_count_that_is_not_a_whole_number(n_last):
-    # (first written for overlap_grid_tail, which the service's anchored grid replaced)
+def test_overlap_grid_tail_refuses_a_count_that_is_not_a_whole_number(n_last):
     # n_last=2.5 returned [4.975, 4.985, 4.995] at 100 Hz: points that are not on the grid
-    # its docstring promises; "3" was a bare TypeError
+    # its docstring promises (overlap_grid's values); "3" was a bare TypeError
     t = np.arange(0.0, 10.0, 0.01)
-    with pytest.raises(ConfigError, match=r"anchored_grid_tail\.n_last must be an integer"):
-        anchored_grid_tail([t], 100.0, 5.0, n_last)
+    with pytest.raises(ConfigError, match=r"overlap_grid_tail\.n_last must be an integer"):
+        overlap_grid_tail([t], 100.0, 5.0, n_last)
 
 
-def test_the_grid_tail_is_the_end_of_the_grid_through_its_anchor():
+def test_overlap_grid_tail_is_the_end_of_the_grid():
     t = np.arange(0.0, 10.0, 0.01)
-    tail, count = anchored_grid_tail([t], 100.0, 4.99, 3)
-    assert count == 500
-    np.testing.assert_array_equal(tail, 4.99 - np.array([2, 1, 0]) / 100.0)
-    assert anchored_grid_tail([t], 100.0, 4.99, 0)[0].size == 0
+    grid = overlap_grid([t], 100.0)
+    tail, end = overlap_grid_tail([t], 100.0, 5.0, 3)
+    assert end == 500
+    np.testing.assert_array_equal(tail, grid[497:500])
+    assert overlap_grid_tail([t], 100.0, 5.0, 0)[0].size == 0
 
 
 def test_windows_dropped_in_a_run_left_with_none_are_counted():
