@@ -700,8 +700,7 @@ def _check_gyro(imu, wheels, vehicle, path, found, wheels_path,
         dv, wz = dv[keep], wz[keep]
         if dv.size >= 10 and dv.std() >= 0.02:
             dv0, wz0 = dv - dv.mean(), wz - wz.mean()
-            denom = math.sqrt(float(dv0 @ dv0) * float(wz0 @ wz0))
-            corr = float(dv0 @ wz0) / denom if denom > 0 else 0.0
+            corr = _correlation(dv, wz)
             k = float(dv0 @ wz0) / float(dv0 @ dv0)
             if abs(corr) >= 0.5 and abs(k) > DEG_S_SLOPE_PER_M:
                 raise UnitError(
