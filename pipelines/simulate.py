@@ -19,6 +19,7 @@ from terrain.io.writer import free_index, write_run
 from terrain.run import Run
 from terrain.sim import (PLANTED_EFFECTS, SCENARIO_NAMES, SimConfig, parse_effects,
                          parse_terrain_list, simulate)
+from terrain.sim.dynamics import IMPLICIT_MAX_ITERATIONS
 from terrain.sim.forces import DEFAULT_PHYSICS, PHYSICS_VERSIONS
 from terrain.sim.simulate import MAX_DURATION_S
 from terrain.sim.scenarios import physics_steps
@@ -98,7 +99,8 @@ def main(args: argparse.Namespace) -> int:
         # an option that changes nothing is said, not silently ignored
         print(f"note: --segment-m {args.segment_m:g} not used: one terrain ({terrains[0]}) "
               "along the whole path")
-    for note in (unreached_terrains_note(run, config), clipped_commands_note(run)):
+    for note in (unreached_terrains_note(run, config), clipped_commands_note(run),
+                 unconverged_steps_note(run)):
         if note:
             print(note)
     return 0
@@ -135,6 +137,32 @@ def clipped_commands_note(run: Run) -> str | None:
             f"limit ({vehicle.motor.max_wheel_speed_rad_s:.3g} rad/s): each "
             f"{'side' if sides else 'wheel'}'s command clipped to it on {per_motor} of "
             f"{steps} physics steps (the run does not follow the command there)")
+
+
+def unconverged_steps_note(run: Run) -> str | None:
+    """A note counting the physics steps whose implicit-Euler iterations did not converge.
+
+    Each step's Newton iterations stop at :data:`terrain.sim.dynamics.IMPLICIT_MAX_ITERATIONS`;
+    a step that has not reached the tolerance by then keeps its last iterate
+    (:func:`terrain.sim.dynamics.implicit_euler_step`).
+
+    Parameters
+    ----------
+    run : Run
+        A simulated run; its metadata holds ``implicit_unconverged_steps`` (a count).
+
+    Returns
+    -------
+    str or None
+        ``note: ...`` with the count; None when every step converged (or the metadata,
+        written before 2026-11-30, has no count).
+    """
+    count = run.meta.get("implicit_unconverged_steps") or 0
+    if not count:
+        return None
+    return (f"note: {count} physics step(s) of the implicit Euler integrator stopped at "
+            f"{IMPLICIT_MAX_ITERATIONS} Newton iterations before reaching its tolerance "
+            f"(their last iterate is kept; a higher SimConfig.physics_rate_hz avoids it)")
 
 
 def unreached_terrains_note(run: Run, config: SimConfig) -> str | None:

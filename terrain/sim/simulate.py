@@ -30,6 +30,10 @@ command asked for more than the motor speed limit and was clipped to it (per sid
 ``terrain simulate`` says so in a note). Closed loop only, ``correction_clipped_steps``: per
 motor, the physics steps on which the command plus the controller's correction exceeded the
 limit and was clipped to it (``terrain control-sim`` reports both counts in its JSON).
+Metadata ``implicit_iterations`` and ``implicit_unconverged_steps``: the Newton iterations
+of the implicit-Euler steps after their first one, and the steps that stopped at
+:data:`terrain.sim.dynamics.IMPLICIT_MAX_ITERATIONS` unconverged (none in the scenarios
+measured on 2026-11-30).
 Physics v2 with load transfer only, ``load_floor_steps``: per contact, the physics steps on
 which its transferred normal load was floored at
 :data:`terrain.sim.forces.MIN_LOAD_FRACTION` of its static load (a wheel about to lift; the
@@ -601,6 +605,10 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         # closed loop: steps on which the corrected command exceeded it (clipped there)
         **({"correction_clipped_steps": phys.correction_clipped_steps.tolist()}
            if phys.correction_clipped_steps is not None else {}),
+        # implicit-Euler steps: Newton iterations after the first, linearly implicit, one and
+        # the steps that stopped at the iteration limit unconverged (their last iterate kept)
+        "implicit_iterations": phys.implicit_iterations,
+        "implicit_unconverged_steps": phys.implicit_unconverged_steps,
         # physics v2 load transfer: steps on which each contact's load sat at its floor
         **({"load_floor_steps": phys.load_floor_steps.tolist()}
            if phys.load_floor_steps is not None else {}),

@@ -249,13 +249,11 @@ def test_mirrored_commands_give_mirrored_runs(case, v, r, slope):
 @given(case=CASES, v=st.floats(-1.0, 1.0), r=st.floats(-1.0, 1.0))
 @example(case=("husky", "PACKED_SNOW", "v1"), v=0.0, r=0.3)
 def test_the_integrator_converges_at_first_order_as_the_step_halves(case, v, r):
-    # linearly implicit Euler: the error of the end state falls by 2 per halving, so with
-    # the 1 ms run as reference e(4 ms) / e(2 ms) = (4 - 1) / (2 - 1) = 3
-    # (at least first order: an error that falls faster, as by 22 for a Husky spinning at
-    # 0.3 rad/s on PACKED_SNOW, is no defect). Known exception: a spin in place near its
-    # spin-out threshold on a peaked traction curve, where the step decides whether the
-    # vehicle grips or spins out (the strict xfail of test_sim_review_sim17: end yaw rates
-    # 0.24, 0.30, 0.34 rad/s at 4, 2, 1 ms for 0.375 rad/s on PACKED_SNOW, v1)
+    # implicit Euler: the error of the end state falls by 2 per halving, so with the 1 ms
+    # run as reference e(4 ms) / e(2 ms) = (4 - 1) / (2 - 1) = 3 (at least first order: an
+    # error that falls faster is no defect). The Newton iterations stop at a residual of
+    # IMPLICIT_TOLERANCE_PER_S3 dt^2, the scheme's own order: a tolerance fixed in force
+    # (tried) gave a Husky spinning at 0.3 rad/s on PACKED_SNOW a ratio of 1.96
     ends = [np.r_[p.pose[-1], p.twist[-1]] for p in
             (_run(*case, (v, r), dt) for dt in (0.004, 0.002, 0.001))]
     assume(abs(ends[0][5] - ends[2][5]) <= 0.05 * abs(ends[2][5]) + 1e-3)

@@ -70,16 +70,11 @@ def _spin_end(rate_rad_s, dt):
     return p.twist[-1, 2], p.slip_motor[-1, 1]
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "left open (sim17): a spin in place on a peaked traction curve is bistable (gripping, "
-    "slip 0.02, or spun out, slip 0.7), and the step decides which: at 0.375 rad/s the "
-    "default 100 Hz physics spins out (yaw rate 0.10 rad/s, slip 0.73) where 1 kHz and "
-    "finer grip (0.366 rad/s, slip 0.02); the spin-out threshold lies between 0.34 and "
-    "0.375 rad/s at 100 Hz and between 0.375 and 0.4 rad/s at 1 kHz. The first-order "
-    "convergence property of test_force_properties_tm15 fails on such draws (husky, "
-    "PACKED_SNOW, v1, v = 0, r = 0.375). A fix changes the integrator, hence every "
-    "simulated run and the documented figures made from them"))
 def test_the_default_step_decides_a_spin_out_as_the_converged_model_does():
+    # sim17, fixed 2026-11-30 by iterating the implicit-Euler step to convergence: a spin in
+    # place on a peaked traction curve is bistable (gripping, slip 0.02, or spun out, slip
+    # 0.7), and with the linearly implicit step alone the step decided which: at 0.375 rad/s
+    # the 100 Hz physics spun out (yaw rate 0.10 rad/s, slip 0.73) where 1 kHz gripped
     fine_rate, fine_slip = _spin_end(0.375, 0.001)
     assert fine_slip < 0.05                       # the converged model grips
     rate, slip = _spin_end(0.375, 0.01)
