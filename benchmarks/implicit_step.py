@@ -20,6 +20,7 @@ Run: ``python benchmarks/implicit_step.py [--seconds 20] [--no-mlflow]`` (~2 min
 from __future__ import annotations
 
 import argparse
+import contextlib
 import math
 import time
 
@@ -47,17 +48,24 @@ def _signals(p) -> tuple[np.ndarray, ...]:
     return p.twist[:, 0], p.twist[:, 2], p.slip_motor[:, 0], p.torque[:, 0]
 
 
-def _simulate(config: SimConfig, iterated: bool):
-    """The physics of ``config``; linearly implicit where ``iterated`` is False."""
+@contextlib.contextmanager
+def _step(iterated: bool):
+    """The integrator's step inside the block: iterated (the default) or, where ``iterated``
+    is False, the linearly implicit step alone (the Newton tolerance set to infinity)."""
     saved = dynamics.IMPLICIT_TOLERANCE_PER_S3
-    if not iterated:
-        dynamics.IMPLICIT_TOLERANCE_PER_S3 = math.inf
+    dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved if iterated else math.inf
     try:
+        yield
+    finally:
+        dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved
+
+
+def _simulate(config: SimConfig, iterated: bool):
+    """The physics of ``config`` and the wall time it took, s."""
+    with _step(iterated):
         t0 = time.perf_counter()
         phys = simulate_with_physics(config).physics
         return phys, time.perf_counter() - t0
-    finally:
-        dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved
 
 
 def rms_errors(vehicle: str, physics: str, terrain: str, scenario: str, seconds: float
@@ -107,13 +115,9 @@ def ice_ramp_slip_error(iterated: bool) -> float:
         t = np.arange(0.0, 1.0 + 0.5 * dt, dt)
         tw = np.zeros((len(t), 3))
         tw[:, 0] = np.minimum(0.5 * (t + dt), 0.5)
-        saved = dynamics.IMPLICIT_TOLERANCE_PER_S3
-        dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved if it else math.inf
-        try:
+        with _step(it):
             return integrate(veh, veh.contact_geometry(), (get_terrain("ICE"),), np.inf, t,
                              tw, 0.0, 1.0)
-        finally:
-            dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved
 
     ref, p = run(0.0005, True), run(0.01, iterated)
     return float(np.abs(p.slip_motor[:, 0] - np.interp(p.t_s, ref.t_s,
@@ -128,13 +132,9 @@ def spin_end(rate_rad_s: float, dt: float, iterated: bool) -> tuple[float, float
     veh = get_vehicle("husky")
     t = np.arange(0.0, 5.0 + 0.5 * dt, dt)
     tw = np.column_stack([0 * t, 0 * t, rate_rad_s * np.minimum(t / 0.5, 1.0)])
-    saved = dynamics.IMPLICIT_TOLERANCE_PER_S3
-    dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved if iterated else math.inf
-    try:
+    with _step(iterated):
         p = integrate(veh, veh.contact_geometry(), (get_terrain("PACKED_SNOW"),), np.inf, t,
                       tw, 0.0, 1.0)
-    finally:
-        dynamics.IMPLICIT_TOLERANCE_PER_S3 = saved
     return float(p.twist[-1, 2]), float(p.slip_motor[-1, 1])
 
 
