@@ -66,6 +66,8 @@ from terrain.vehicles.skid_steer import skid_steer_inverse
 
 __all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_commands",
            "implicit_euler_step", "IMPLICIT_TOLERANCE_PER_S3", "IMPLICIT_MAX_ITERATIONS",
+           "IMPLICIT_ANALYTIC_ITERATIONS", "IMPLICIT_DIFFERENCE_STEP",
+           "IMPLICIT_LINE_SEARCH_HALVINGS",
            "slope_attitude", "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S",
            "soil_contacts"]
 
@@ -82,9 +84,26 @@ LOAD_TRANSFER_TIME_CONSTANT_S = 0.05
 IMPLICIT_TOLERANCE_PER_S3 = 1.0
 
 #: Newton iterations of one implicit-Euler step after its first (linearly implicit) one;
-#: a step that has not converged by then keeps its last iterate and is counted
-#: (:attr:`PhysicsResult.implicit_unconverged_steps`).
+#: a step that has not converged by then keeps its iterate of the smallest velocity error
+#: and is counted (:attr:`PhysicsResult.implicit_unconverged_steps`).
 IMPLICIT_MAX_ITERATIONS = 50
+
+#: Newton iterations of a step that use the contact laws' analytic Jacobian; later ones use
+#: central differences of the forces, whose slopes the laws' secants and a tyre's held peak
+#: do not give (on BorealTC's FLOORING runs, physics v2, the analytic slopes alone left 34
+#: steps unconverged at 50 iterations, cycling; none with this switch). ASSUMED (numerical
+#: setting).
+IMPLICIT_ANALYTIC_ITERATIONS = 5
+
+#: Central-difference step of that Jacobian, m/s and rad/s (about the cube root of the
+#: float64 resolution times 0.1 m/s, and far below the 0.02 m/s slip-speed floor over which
+#: the contact laws bend). ASSUMED (numerical setting).
+IMPLICIT_DIFFERENCE_STEP = 1e-6
+
+#: Halvings of a Newton step at most, while its velocity error does not fall (backtracking
+#: line search; Dennis and Schnabel, *Numerical Methods for Unconstrained Optimization and
+#: Nonlinear Equations*, SIAM 1996, section 6.3). ASSUMED (numerical setting).
+IMPLICIT_LINE_SEARCH_HALVINGS = 4
 
 
 def v2_terrain(terrain, contact: SoilContact, load_n: float):
@@ -501,10 +520,15 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     Each further step solves ``(M - dt J(V + dV)) d = R`` for the residual
     ``R = dt (F(V + dV) + G) - M dV``, until ``|M^-1 R|`` is at most
     :data:`IMPLICIT_TOLERANCE_PER_S3` ``dt^2`` in every component, or
-    :data:`IMPLICIT_MAX_ITERATIONS` further steps have run. ``G`` (gravity and the transport
-    terms) is held at the start of the step, as before; only the contact forces are implicit.
-    Where the contact forces are linear over the step the first step already solves the
-    equation and the result is the linearly implicit step's, bit for bit.
+    :data:`IMPLICIT_MAX_ITERATIONS` further steps have run. ``J`` is the contact laws' own
+    Jacobian for the first :data:`IMPLICIT_ANALYTIC_ITERATIONS` steps, then the forces'
+    central differences; a step whose velocity error does not fall is halved up to
+    :data:`IMPLICIT_LINE_SEARCH_HALVINGS` times (without both, Newton cycled across the kinks
+    of physics v2's tyre law on rigid ground at low speed). A step that does not converge
+    keeps the iterate of the smallest error. ``G`` (gravity and the transport terms) is held
+    at the start of the step, as before; only the contact forces are implicit. Where the
+    contact forces are linear over the step the first step already solves the equation and
+    the result is the linearly implicit step's, bit for bit.
 
     Parameters
     ----------
@@ -539,7 +563,8 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     iterations : int
         Newton steps after the first.
     converged : bool
-        False where the iterations stopped at the limit with the residual above tolerance.
+        False where the iterations stopped at the limit with the residual above tolerance
+        (``dv`` is then the iterate of the smallest velocity error).
 
     Raises
     ------
@@ -552,7 +577,9 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     Backward (implicit) Euler for the stiff wheel-ground forces, solved by Newton's method;
     Hairer and Wanner, *Solving Ordinary Differential Equations II* (2nd ed., Springer 1996),
     sections IV.8 (the simplified Newton iterations of implicit methods) and IV.9 (the
-    linearly implicit Rosenbrock-Euler step, the first iterate here).
+    linearly implicit Rosenbrock-Euler step, the first iterate here); the backtracking line
+    search of Dennis and Schnabel, *Numerical Methods for Unconstrained Optimization and
+    Nonlinear Equations* (SIAM 1996), section 6.3.
     """
     _, _, dv, info = dgesv(m_mat - dt * first.jacobian, dt * force)
     if info != 0:
@@ -560,20 +587,48 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     linearised, last = first, dv
     other_force = force - first.force
     tolerance = IMPLICIT_TOLERANCE_PER_S3 * dt * dt
-    for iterations in range(IMPLICIT_MAX_ITERATIONS + 1):
-        contact = contact_at(vel + dv)
-        residual = dt * (contact.force + other_force) - m_mat @ dv
-        if np.all(np.abs(m_inv @ residual) <= tolerance):
-            return dv, linearised, last, iterations, True
-        if iterations == IMPLICIT_MAX_ITERATIONS:
-            break
-        _, _, last, info = dgesv(m_mat - dt * contact.jacobian, residual)
+
+    def residual_at(change):
+        """The contact forces at ``vel + change``, the residual and its velocity error."""
+        at = contact_at(vel + change)
+        res = dt * (at.force + other_force) - m_mat @ change
+        return at, res, float(np.max(np.abs(m_inv @ res)))
+
+    contact, residual, error = residual_at(dv)
+    best = (error, dv, linearised, last)
+    iterations = 0
+    while error > tolerance and iterations < IMPLICIT_MAX_ITERATIONS:
+        jacobian = contact.jacobian
+        if iterations >= IMPLICIT_ANALYTIC_ITERATIONS:
+            # the contact laws' own slopes (secants, chords, a tyre's held peak) have not
+            # converged: the Jacobian of the forces themselves, by central differences
+            # (mirrored twists give mirrored columns, so left and right turns stay mirrors)
+            h = IMPLICIT_DIFFERENCE_STEP
+            jacobian = np.column_stack([
+                (contact_at(vel + dv + h * unit).force
+                 - contact_at(vel + dv - h * unit).force) / (2.0 * h) for unit in np.eye(3)])
+        _, _, step, info = dgesv(m_mat - dt * jacobian, residual)
         if info != 0:
             raise np.linalg.LinAlgError(f"singular implicit-Euler matrix at {where} "
                                         f"(Newton iteration {iterations + 1})")
-        dv = dv + last
-        linearised = contact
-    return dv, linearised, last, IMPLICIT_MAX_ITERATIONS, False
+        # backtracking: halve the step until the velocity error falls (at most
+        # IMPLICIT_LINE_SEARCH_HALVINGS times), so an iteration cannot jump across a kink
+        scale = 1.0
+        for halving in range(IMPLICIT_LINE_SEARCH_HALVINGS + 1):
+            trial = dv + scale * step
+            trial_contact, trial_residual, trial_error = residual_at(trial)
+            if trial_error < error or halving == IMPLICIT_LINE_SEARCH_HALVINGS:
+                break
+            scale *= 0.5
+        iterations += 1
+        linearised, last = contact, scale * step
+        dv, contact, residual, error = trial, trial_contact, trial_residual, trial_error
+        if error < best[0]:
+            best = (error, dv, linearised, last)
+    if error <= tolerance:
+        return dv, linearised, last, iterations, True
+    _, dv, linearised, last = best
+    return dv, linearised, last, iterations, False
 
 
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
