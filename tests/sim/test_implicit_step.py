@@ -94,3 +94,46 @@ def test_steps_stopped_at_the_iteration_limit_are_counted_and_noted(monkeypatch)
                                duration_s=4.0, seed=0))
     assert again.meta["implicit_unconverged_steps"] == 0
     assert unconverged_steps_note(again) is None
+
+
+def test_a_kink_the_analytic_slopes_miss_is_solved_by_differences_and_backtracking():
+    # a wheel held at rest under a body rolling at 0.0202 m/s on a tyre law that holds its
+    # friction peak beyond a tiny slip speed (physics v2 on rigid ground): the law reports
+    # slope 0 there, so plain Newton steps jump across v = 0 and cycle (+-0.15 m/s of
+    # velocity error, step to step); the step must still end where M dv = dt F(v + dv)
+    f_peak, u, dt = 390.0, 1e-3, 0.01
+
+    def at(twist):
+        v = twist[0]
+        force = np.array([-f_peak * np.clip(v / u, -1.0, 1.0), 0.0, 0.0])
+        return _contact(force, np.zeros((3, 3)))          # the held peak: slope 0
+
+    vel = np.array([0.0202, 0.0, 0.0])
+    first = at(vel)
+    dv, _, _, its, ok = implicit_euler_step(M, M_INV, dt, vel, first, first.force, at)
+    assert ok and its <= 10
+    residual = dt * at(vel + dv).force - M @ dv
+    assert np.abs(M_INV @ residual).max() <= IMPLICIT_TOLERANCE_PER_S3 * dt * dt
+    assert abs(vel[0] + dv[0]) < u                        # stopped, not reversed
+
+
+def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatch):
+    # BorealTC ASPHALT/02 under physics v2 (the tyre's combined-slip law): 26 of its 985 steps
+    # stopped unconverged at 50 iterations, the kept iterate swinging v_x between -0.072
+    # and -0.075 m/s step to step, before the backtracking and the difference Jacobian
+    import terrain.audit.replay as replay
+    from terrain.io.shipped import load_dataset
+
+    steps = []
+
+    def counting(*args, **kwargs):
+        out = implicit_euler_step(*args, **kwargs)
+        steps.append(out[3:])
+        return out
+
+    monkeypatch.setattr(dynamics, "implicit_euler_step", counting)
+    run = next(r for r in load_dataset("borealtc") if r.run_id == "borealtc/ASPHALT/02")
+    replay.replay_run(run, replay.ReplaySettings(physics="v2"))
+    iterations = np.array([s[0] for s in steps])
+    assert len(steps) > 900 and all(s[1] for s in steps)
+    assert iterations.max() <= 10 and iterations.sum() > 0
