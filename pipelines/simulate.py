@@ -143,7 +143,7 @@ def unconverged_steps_note(run: Run) -> str | None:
     """A note counting the physics steps whose implicit-Euler iterations did not converge.
 
     Each step's Newton iterations stop at :data:`terrain.sim.dynamics.IMPLICIT_MAX_ITERATIONS`;
-    a step that has not reached the tolerance by then keeps its last iterate
+    a step that has not reached the tolerance by then keeps its iterate of the smallest error
     (:func:`terrain.sim.dynamics.implicit_euler_step`).
 
     Parameters
@@ -162,7 +162,7 @@ def unconverged_steps_note(run: Run) -> str | None:
         return None
     return (f"note: {count} physics step(s) of the implicit Euler integrator stopped at "
             f"{IMPLICIT_MAX_ITERATIONS} Newton iterations before reaching its tolerance "
-            f"(their last iterate is kept; a higher SimConfig.physics_rate_hz avoids it)")
+            f"(each keeps its iterate of the smallest error)")
 
 
 def unreached_terrains_note(run: Run, config: SimConfig) -> str | None:

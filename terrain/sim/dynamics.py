@@ -233,7 +233,7 @@ class PhysicsResult:
         one (:func:`implicit_euler_step`), summed over the run.
     implicit_unconverged_steps : int
         Steps whose Newton iterations stopped at :data:`IMPLICIT_MAX_ITERATIONS` with the
-        residual above the tolerance (their last iterate is kept).
+        residual above the tolerance (their iterate of the smallest error is kept).
     """
 
     t_s: np.ndarray

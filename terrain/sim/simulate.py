@@ -606,7 +606,7 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         **({"correction_clipped_steps": phys.correction_clipped_steps.tolist()}
            if phys.correction_clipped_steps is not None else {}),
         # implicit-Euler steps: Newton iterations after the first, linearly implicit, one and
-        # the steps that stopped at the iteration limit unconverged (their last iterate kept)
+        # the steps that stopped at the iteration limit unconverged (their best iterate kept)
         "implicit_iterations": phys.implicit_iterations,
         "implicit_unconverged_steps": phys.implicit_unconverged_steps,
         # physics v2 load transfer: steps on which each contact's load sat at its floor
