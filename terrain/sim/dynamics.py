@@ -523,7 +523,8 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     :data:`IMPLICIT_MAX_ITERATIONS` further steps have run. ``J`` is the contact laws' own
     Jacobian for the first :data:`IMPLICIT_ANALYTIC_ITERATIONS` steps, then the forces'
     central differences; a step whose velocity error does not fall is halved up to
-    :data:`IMPLICIT_LINE_SEARCH_HALVINGS` times (without both, Newton cycled across the kinks
+    :data:`IMPLICIT_LINE_SEARCH_HALVINGS` times, the full step taken where no halving lowers it
+    (without both, Newton cycled across the kinks
     of physics v2's tyre law on rigid ground at low speed). A step that does not converge
     keeps the iterate of the smallest error. ``G`` (gravity and the transport terms) is held
     at the start of the step, as before; only the contact forces are implicit. Where the
@@ -617,7 +618,14 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
         for halving in range(IMPLICIT_LINE_SEARCH_HALVINGS + 1):
             trial = dv + scale * step
             trial_contact, trial_residual, trial_error = residual_at(trial)
-            if trial_error < error or halving == IMPLICIT_LINE_SEARCH_HALVINGS:
+            if trial_error < error:
+                break
+            if halving == IMPLICIT_LINE_SEARCH_HALVINGS:
+                # no halving lowers the error: the full step (the residual of a step
+                # towards a root further away can rise on the way)
+                scale = 1.0
+                trial = dv + step
+                trial_contact, trial_residual, trial_error = residual_at(trial)
                 break
             scale *= 0.5
         iterations += 1

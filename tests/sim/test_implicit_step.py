@@ -137,3 +137,25 @@ def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatc
     iterations = np.array([s[0] for s in steps])
     assert len(steps) > 900 and all(s[1] for s in steps)
     assert iterations.max() <= 10 and iterations.sum() > 0
+
+
+@pytest.mark.slow     # a 622 s replay: ~11 s
+def test_the_v1_replay_of_the_longest_flooring_run_converges_on_every_step(monkeypatch):
+    # BorealTC FLOORING/06 under physics v1: with the backtracking taking the smallest halving
+    # when none lowered the error, 162 of its 62 216 steps stopped unconverged (a step towards
+    # a root whose residual rises on the way); the full step is now taken then
+    import terrain.audit.replay as replay
+    from terrain.io.shipped import load_dataset
+
+    steps = []
+
+    def counting(*args, **kwargs):
+        out = implicit_euler_step(*args, **kwargs)
+        steps.append(out[3:])
+        return out
+
+    monkeypatch.setattr(dynamics, "implicit_euler_step", counting)
+    run = next(r for r in load_dataset("borealtc") if r.run_id == "borealtc/FLOORING/06")
+    replay.replay_run(run, replay.ReplaySettings(physics="v1"))
+    assert len(steps) > 60_000 and all(s[1] for s in steps)
+    assert max(s[0] for s in steps) <= 10
