@@ -117,10 +117,8 @@ def test_a_kink_the_analytic_slopes_miss_is_solved_by_differences_and_backtracki
     assert abs(vel[0] + dv[0]) < u                        # stopped, not reversed
 
 
-def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatch):
-    # BorealTC ASPHALT/02 under physics v2 (the tyre's combined-slip law): 26 of its 985 steps
-    # stopped unconverged at 50 iterations, the kept iterate swinging v_x between -0.072
-    # and -0.075 m/s step to step, before the backtracking and the difference Jacobian
+def _replay_steps(monkeypatch, run_id: str, physics: str) -> np.ndarray:
+    """(Newton iterations, converged) of every implicit step of a shipped run's replay."""
     import terrain.audit.replay as replay
     from terrain.io.shipped import load_dataset
 
@@ -132,11 +130,18 @@ def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatc
         return out
 
     monkeypatch.setattr(dynamics, "implicit_euler_step", counting)
-    run = next(r for r in load_dataset("borealtc") if r.run_id == "borealtc/ASPHALT/02")
-    replay.replay_run(run, replay.ReplaySettings(physics="v2"))
-    iterations = np.array([s[0] for s in steps])
-    assert len(steps) > 900 and all(s[1] for s in steps)
-    assert iterations.max() <= 10 and iterations.sum() > 0
+    run = next(r for r in load_dataset(run_id.split("/")[0]) if r.run_id == run_id)
+    replay.replay_run(run, replay.ReplaySettings(physics=physics))
+    return np.array(steps, dtype=int)
+
+
+def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatch):
+    # BorealTC ASPHALT/02 under physics v2 (the tyre's combined-slip law): 26 of its 985 steps
+    # stopped unconverged at 50 iterations, the kept iterate swinging v_x between -0.072
+    # and -0.075 m/s step to step, before the backtracking and the difference Jacobian
+    steps = _replay_steps(monkeypatch, "borealtc/ASPHALT/02", "v2")
+    assert len(steps) > 900 and steps[:, 1].all()
+    assert steps[:, 0].max() <= 10 and steps[:, 0].sum() > 0
 
 
 @pytest.mark.slow     # a 622 s replay: ~11 s
@@ -144,18 +149,6 @@ def test_the_v1_replay_of_the_longest_flooring_run_converges_on_every_step(monke
     # BorealTC FLOORING/06 under physics v1: with the backtracking taking the smallest halving
     # when none lowered the error, 162 of its 62 216 steps stopped unconverged (a step towards
     # a root whose residual rises on the way); the full step is now taken then
-    import terrain.audit.replay as replay
-    from terrain.io.shipped import load_dataset
-
-    steps = []
-
-    def counting(*args, **kwargs):
-        out = implicit_euler_step(*args, **kwargs)
-        steps.append(out[3:])
-        return out
-
-    monkeypatch.setattr(dynamics, "implicit_euler_step", counting)
-    run = next(r for r in load_dataset("borealtc") if r.run_id == "borealtc/FLOORING/06")
-    replay.replay_run(run, replay.ReplaySettings(physics="v1"))
-    assert len(steps) > 60_000 and all(s[1] for s in steps)
-    assert max(s[0] for s in steps) <= 10
+    steps = _replay_steps(monkeypatch, "borealtc/FLOORING/06", "v1")
+    assert len(steps) > 60_000 and steps[:, 1].all()
+    assert steps[:, 0].max() <= 10
