@@ -614,20 +614,19 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
                                         f"(Newton iteration {iterations + 1})")
         # backtracking: halve the step until the velocity error falls (at most
         # IMPLICIT_LINE_SEARCH_HALVINGS times), so an iteration cannot jump across a kink
-        scale = 1.0
-        for halving in range(IMPLICIT_LINE_SEARCH_HALVINGS + 1):
-            trial = dv + scale * step
-            trial_contact, trial_residual, trial_error = residual_at(trial)
+        full = (1.0, dv + step, *residual_at(dv + step))
+        scale, trial, trial_contact, trial_residual, trial_error = full
+        for _ in range(IMPLICIT_LINE_SEARCH_HALVINGS):
             if trial_error < error:
                 break
-            if halving == IMPLICIT_LINE_SEARCH_HALVINGS:
+            scale *= 0.5
+            trial = dv + scale * step
+            trial_contact, trial_residual, trial_error = residual_at(trial)
+        else:
+            if trial_error >= error:
                 # no halving lowers the error: the full step (the residual of a step
                 # towards a root further away can rise on the way)
-                scale = 1.0
-                trial = dv + step
-                trial_contact, trial_residual, trial_error = residual_at(trial)
-                break
-            scale *= 0.5
+                scale, trial, trial_contact, trial_residual, trial_error = full
         iterations += 1
         linearised, last = contact, scale * step
         dv, contact, residual, error = trial, trial_contact, trial_residual, trial_error
@@ -884,8 +883,14 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
             # below it)
             load_floor += floored_contacts(layout.normal_load_n, x_cg, y_cg,
                                            mass, cog_h, acc_lt[0], acc_lt[1])
-        contact = contact_forces(layout, maps, ter, vel, omega, normal, soils.get(ter.name),
-                                 side_factor[ti], hold_slip[ti])
+        soil_k, side_k, hold_k = soils.get(ter.name), side_factor[ti], hold_slip[ti]
+
+        def contact_at(twist):
+            """The contact forces of this step (its wheel speeds, loads, maps, terrain)."""
+            return contact_forces(layout, maps, ter, twist, omega, normal, soil_k, side_k,
+                                  hold_k)
+
+        contact = contact_at(vel)
         gravity = gravity_force(mass, slope_rad, pose[2], cog)
         # transport (Coriolis, centripetal) terms of the body-frame equations about the
         # origin: m (dv_x/dt - r v_y) = F_x ... for a mass at the origin
@@ -895,15 +900,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         # curve has flattened; the tyre's combined-slip law keeps its own (contact.slip None)
         if contact.slip is not None:
             contact = reach_chord_contact(contact, layout, maps, ter,
-                                          dt * (m_inv @ force), normal, soils.get(ter.name))
+                                          dt * (m_inv @ force), normal, soil_k)
         # implicit Euler, Newton steps from the linearly implicit one (LAPACK gesv, LU with
         # partial pivoting, as numpy.linalg.solve, without its per-call overhead)
-        soil_k, side_k, hold_k = soils.get(ter.name), side_factor[ti], hold_slip[ti]
         dv, lin, last, its, ok = implicit_euler_step(
-            m_mat, m_inv, dt, vel, contact, force,
-            lambda twist: contact_forces(layout, maps, ter, twist, omega, normal, soil_k,
-                                         side_k, hold_k),
-            f"step {k} (t = {t_s[k]:.3f} s)")
+            m_mat, m_inv, dt, vel, contact, force, contact_at, f"step {k} (t = {t_s[k]:.3f} s)")
         n_iter += its
         n_unconverged += not ok
         vel_new = vel + dv
