@@ -217,12 +217,12 @@ def sim_classifier(vehicle: str, terrains: Sequence[str],
     for t in settings["terrains"]:
         for sc in scenarios:
             for s in settings["seeds"]:
-                # one id per run (a simulated run's is sim/<TERRAIN>/<seed>, the same for
-                # every scenario), as make_windows groups and counts windows by run id
-                run_id = f"sim/{t}/{sc}/{s}"
-                runs.append(dataclasses.replace(simulate(SimConfig(
-                    vehicle=vehicle, terrains=(t,), scenario=sc, duration_s=duration_s,
-                    seed=s)), run_id=run_id))
+                # one id per run (sim/<TERRAIN>/<scenario>/<seed>), as make_windows groups
+                # and counts windows by run id
+                run = simulate(SimConfig(vehicle=vehicle, terrains=(t,), scenario=sc,
+                                         duration_s=duration_s, seed=s))
+                runs.append(run)
+                run_id = run.run_id
                 if ctrl is not None:   # the robot's logged run with the controller on
                     run = run_closed_loop(vehicle, t, sc, True, s, duration_s,
                                           tuple(ctrl["gains"]), estimator=ctrl["estimator"],

@@ -618,7 +618,10 @@ def simulate_with_physics(config: SimConfig, hook: ControlHook | None = None) ->
         "units": {"time": "s", "wx": "rad/s", "ax": "m/s^2", "cur": "A", "vel": "m/s",
                   "delta": "rad", "omega": "rad/s", "v_c": "m/s", "yaw": "rad"},
     }
-    run = Run(run_id=f"sim/{meta['terrain']}/{int(config.seed)}", dataset="sim",
+    # one id per terrain, scenario and seed (it was sim/<TERRAIN>/<seed>, one id for every
+    # scenario, while windows are grouped and counted by run id)
+    run = Run(run_id=f"sim/{meta['terrain']}/{config.scenario}/{int(config.seed)}",
+              dataset="sim",
               terrain=str(meta["terrain"]), streams=streams, vehicle=vehicle.name,
               source="terrain.sim", meta=meta)
     return Simulation(config=config, run=run, physics=phys)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import hashlib
 import os
 import tempfile
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterator
 
@@ -156,7 +156,6 @@ def simulated_run(config: SimConfig, cache_dir: str | Path | None = None) -> Run
     if path is not None and path.exists():
         return joblib.load(path)
     run = simulate(config)
-    run = replace(run, run_id=f"sim/{config.terrains[0]}/{config.scenario}/{config.seed}")
     if path is not None:
         path.parent.mkdir(parents=True, exist_ok=True)
         # a temporary file of this write's own: two processes filling one cell at once each

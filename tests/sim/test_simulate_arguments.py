@@ -229,7 +229,7 @@ def test_lower_case_terrain_names_label_the_run_with_the_catalogue_name(tmp_path
     assert config.terrains == ("SNOW", "ICE")
     run = simulate(SimConfig(vehicle="husky", terrains=("snow",), scenario="spin",
                              duration_s=0.5, seed=0))
-    assert run.terrain == "SNOW" and run.run_id == "sim/SNOW/0"
+    assert run.terrain == "SNOW" and run.run_id == "sim/SNOW/spin/0"
     assert run.meta["terrains"] == ["SNOW"]
     assert set(run.streams["truth"]["terrain"]) == {"SNOW"}
     paths = write_run(run, tmp_path)
@@ -361,3 +361,13 @@ def test_a_full_terrain_folder_is_refused_before_simulating(tmp_path, monkeypatc
         err = capsys.readouterr().err
         assert (f"terrain simulate: error: {tmp_path / folder} already holds runs 00-99" in err)
     assert not simulated
+
+
+def test_runs_of_one_terrain_and_seed_in_two_scenarios_have_two_ids():
+    """A simulated run was sim/<TERRAIN>/<seed> whatever its scenario, so a spin and a
+    straight run of one terrain and seed were one run to everything that groups or counts
+    windows by run id (run-grouped folds among them)."""
+    ids = {simulate(SimConfig(vehicle="husky", terrains=("GRASS",), scenario=scenario,
+                              duration_s=0.5, seed=3)).run_id
+           for scenario in ("spin", "straight_accel")}
+    assert ids == {"sim/GRASS/spin/3", "sim/GRASS/straight_accel/3"}
