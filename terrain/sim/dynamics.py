@@ -39,6 +39,7 @@ lateral wheel-soil model on soils and the tyre's combined-slip law on rigid surf
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from typing import Callable, NamedTuple
 
@@ -572,6 +573,10 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     numpy.linalg.LinAlgError
         A singular implicit-Euler matrix ``M - dt J`` (not seen with the catalogue's
         vehicles and terrains).
+    NonFiniteInputError
+        NaN or infinite forces at the start of the step or at its linearly implicit iterate
+        (``where`` named); a later iterate's are halved back from, or leave the step
+        unconverged with its best finite iterate.
 
     Notes
     -----
@@ -596,6 +601,13 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
         return at, res, float(np.max(np.abs(m_inv @ res)))
 
     contact, residual, error = residual_at(dv)
+    if not math.isfinite(error):
+        # a NaN error compares False with everything: the NaN step was returned as the
+        # 'best' iterate and the run went on with NaN states
+        where_forces = ("at the start of the step" if not np.all(np.isfinite(dv))
+                        else f"at the linearly implicit step's twist {(vel + dv).tolist()}")
+        raise NonFiniteInputError(f"non-finite forces {where_forces} at {where} (the "
+                                  f"implicit-Euler step cannot be solved)")
     best = (error, dv, linearised, last)
     iterations = 0
     while error > tolerance and iterations < IMPLICIT_MAX_ITERATIONS:
@@ -708,7 +720,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         without one value per motor.
     NonFiniteInputError
         NaN or infinite times, commands or steering offsets, or the hook returned a NaN or
-        infinite correction.
+        infinite correction; non-finite forces in a step (:func:`implicit_euler_step`, not
+        seen with the catalogue's vehicles and terrains).
     numpy.linalg.LinAlgError
         The implicit-Euler matrix ``M - dt J`` is singular (not seen with the catalogue's
         vehicles and terrains).

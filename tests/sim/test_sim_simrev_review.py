@@ -14,6 +14,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import terrain.sim.dynamics as dynamics
+from terrain.errors import NonFiniteInputError
 from terrain.sim.dynamics import (IMPLICIT_ANALYTIC_ITERATIONS, IMPLICIT_TOLERANCE_PER_S3,
                                   implicit_euler_step, integrate)
 from terrain.sim.forces import (ContactForces, contact_layout, step_traction_coefficient,
@@ -199,3 +200,16 @@ def test_the_motor_torque_of_a_step_solved_on_analytic_slopes_is_its_converged_t
             veh.mass_kg * IMPLICIT_TOLERANCE_PER_S3 * dt)
         checked += its > 0
     assert checked >= 3
+
+
+@pytest.mark.parametrize("where, force", [("start", np.nan), ("start", np.inf),
+                                          ("end", np.nan)])
+def test_non_finite_contact_forces_are_refused_with_the_step_named(where, force):
+    # a NaN force made dv NaN, returned as the 'best' iterate (its NaN error compares
+    # False with everything), and the run went on with NaN states
+    good = _contact([1.0, 0.0, 0.0], -np.eye(3))
+    bad = _contact([force, 0.0, 0.0])
+    first = bad if where == "start" else good
+    with pytest.raises(NonFiniteInputError, match=r"step 7 \(t = 0.070 s\)"):
+        implicit_euler_step(M, M_INV, 0.01, np.zeros(3), first, first.force,
+                            lambda twist: bad, "step 7 (t = 0.070 s)")
