@@ -47,7 +47,7 @@ import numpy as np
 from scipy.linalg.lapack import dgesv
 
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, TimeStepError,
-                            config_numbers, refuse_booleans)
+                            config_numbers, real_arrays, refuse_booleans)
 from terrain.sim.forces import (COMBINED_SLIP, LOAD_TRANSFER, ContactForces,
                                 SLIDE_SPEED_M_S, SLIP_SPEED_FLOOR_M_S, SOIL_SPEED_M_S,
                                 check_physics, contact_forces, floored_contacts,
@@ -710,6 +710,9 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         ``twist_cmd``, ``steer_offset_rad`` or a hook's correction given as booleans, a
         lateral velocity command (``v_y`` not 0) for a vehicle that does not steer, or a
         ``hook`` that is not callable.
+    DataFormatError
+        The hook returned a correction that is not real numbers (text, a mapping, complex
+        numbers, a ragged list), naming the step (:func:`terrain.errors.real_arrays`).
     TimeStepError
         A time grid that does not increase or is not uniform (within
         :data:`GRID_STEP_TOLERANCE` of its first step).
@@ -850,9 +853,10 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                  omega_ll[k].copy(), torque_out[k].copy(), float(pitch_k),
                                  float(roll_k), int(terr_out[k])))
         if new is not None:
-            refuse_booleans(ConfigError,
-                            **{f"the closed-loop hook's correction at step {k}": new})
-            new = np.asarray(new, dtype=float)
+            # booleans refused, then text, a mapping or complex numbers (bare ValueErrors
+            # and TypeErrors of NumPy), each naming the step
+            new, = real_arrays("integrate", ConfigError,
+                               **{f"the closed-loop hook's correction at step {k}": new})
             if new.size != nm:
                 raise ShapeError(f"the closed-loop hook returned {new.size} values for "
                                  f"{nm} motors at step {k} (t = {t_s[k]:.3f} s), shape "

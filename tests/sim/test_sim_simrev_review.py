@@ -14,7 +14,7 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import terrain.sim.dynamics as dynamics
-from terrain.errors import NonFiniteInputError
+from terrain.errors import NonFiniteInputError, TerrainError
 from terrain.sim.dynamics import (IMPLICIT_ANALYTIC_ITERATIONS, IMPLICIT_TOLERANCE_PER_S3,
                                   implicit_euler_step, integrate)
 from terrain.sim.forces import (ContactForces, contact_layout, step_traction_coefficient,
@@ -213,3 +213,14 @@ def test_non_finite_contact_forces_are_refused_with_the_step_named(where, force)
     with pytest.raises(NonFiniteInputError, match=r"step 7 \(t = 0.070 s\)"):
         implicit_euler_step(M, M_INV, 0.01, np.zeros(3), first, first.force,
                             lambda twist: bad, "step 7 (t = 0.070 s)")
+
+
+@pytest.mark.parametrize("correction", [["a", "b"], "fast", {"l": 1.0}, [1j, 0.0],
+                                        [[1.0], [2.0, 3.0]]])
+def test_a_hook_correction_that_is_not_numbers_is_refused_naming_the_step(correction):
+    # text, a dict or complex numbers were bare ValueErrors / TypeErrors of NumPy
+    veh = get_vehicle("husky")
+    t = np.arange(0.0, 0.1, 0.01)
+    with pytest.raises(TerrainError, match="step 0"):
+        integrate(veh, veh.contact_geometry(), (get_terrain("ICE"),), np.inf, t,
+                  _commands(t, "ramp", 0.3), 0.0, 1.0, hook=lambda snap: correction)
