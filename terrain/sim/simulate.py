@@ -295,6 +295,8 @@ class SimConfig:
             # 5 was a bare TypeError (not iterable), b"ASPHALT" "unknown terrain 65"
             raise ConfigError(f"SimConfig.terrains must be a sequence of terrain names, got "
                               f"{type(self.terrains).__name__} {self.terrains!r:.60}")
+        # once: a generator, iterated by the checks below, left the run no terrain
+        object.__setattr__(self, "terrains", tuple(self.terrains))
         if not self.terrains:
             raise ConfigError("at least one terrain is needed")
         for t in self.terrains:

@@ -14,7 +14,8 @@ import pytest
 from hypothesis import given, settings, strategies as st
 
 import terrain.sim.dynamics as dynamics
-from terrain.errors import NonFiniteInputError, TerrainError
+from terrain.errors import ConfigError, NonFiniteInputError, TerrainError
+from terrain.sim import SimConfig
 from terrain.sim.dynamics import (IMPLICIT_ANALYTIC_ITERATIONS, IMPLICIT_TOLERANCE_PER_S3,
                                   implicit_euler_step, integrate)
 from terrain.sim.forces import (ContactForces, contact_layout, step_traction_coefficient,
@@ -224,3 +225,13 @@ def test_a_hook_correction_that_is_not_numbers_is_refused_naming_the_step(correc
     with pytest.raises(TerrainError, match="step 0"):
         integrate(veh, veh.contact_geometry(), (get_terrain("ICE"),), np.inf, t,
                   _commands(t, "ramp", 0.3), 0.0, 1.0, hook=lambda snap: correction)
+
+
+def test_simconfig_takes_a_generator_of_terrain_names():
+    # the terrain checks iterated a generator to its end: the run got no terrain (and the
+    # label MIXED) without a word
+    config = SimConfig(duration_s=1.0, terrains=(t for t in ["ice", "SNOW"]))
+    assert config.terrains == ("ICE", "SNOW") and config.run_terrain == "MIXED"
+    assert SimConfig(duration_s=1.0, terrains=iter(["ice"])).run_terrain == "ICE"
+    with pytest.raises(ConfigError, match="at least one terrain"):
+        SimConfig(duration_s=1.0, terrains=iter([]))
