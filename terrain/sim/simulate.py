@@ -463,8 +463,9 @@ def simulate(config: SimConfig) -> Run:
     Returns
     -------
     Run
-        ``dataset = "sim"``, run id ``sim/<TERRAIN>/<seed>``, streams as in the module
-        docstring, metadata (settings, rates, parameters of vehicle, terrains and sensors).
+        ``dataset = "sim"``, run id ``sim/<TERRAIN>/<scenario>/<seed>``, streams as in the
+        module docstring, metadata (settings, rates, parameters of vehicle, terrains and
+        sensors).
 
     Raises
     ------

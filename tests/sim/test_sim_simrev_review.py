@@ -15,7 +15,7 @@ from hypothesis import given, settings, strategies as st
 
 import terrain.sim.dynamics as dynamics
 from terrain.errors import ConfigError, NonFiniteInputError, TerrainError
-from terrain.sim import SimConfig
+from terrain.sim import SimConfig, simulate
 from terrain.sim.dynamics import (IMPLICIT_ANALYTIC_ITERATIONS, IMPLICIT_TOLERANCE_PER_S3,
                                   implicit_euler_step, integrate)
 from terrain.sim.forces import (ContactForces, contact_layout, step_traction_coefficient,
@@ -235,3 +235,10 @@ def test_simconfig_takes_a_generator_of_terrain_names():
     assert SimConfig(duration_s=1.0, terrains=iter(["ice"])).run_terrain == "ICE"
     with pytest.raises(ConfigError, match="at least one terrain"):
         SimConfig(duration_s=1.0, terrains=iter([]))
+
+
+def test_the_run_id_the_simulate_docstring_gives_is_the_run_id():
+    run = simulate(SimConfig(vehicle="husky", terrains=("ICE",), scenario="spin",
+                             duration_s=0.5, seed=3))
+    assert run.run_id == "sim/ICE/spin/3"
+    assert "sim/<TERRAIN>/<scenario>/<seed>" in simulate.__doc__
