@@ -144,8 +144,19 @@ def used_indexes(folder: str | Path) -> set[int]:
     Returns
     -------
     set of int
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` exists and is not a folder (a file of that name: the run's files cannot
+        go in it).
     """
     folder = Path(folder)
+    if folder.exists() and not folder.is_dir():
+        # (terrain simulate simulated first, then mkdir failed with a bare "File exists")
+        raise ConfigError(f"{folder} is a file, not a terrain folder: a run's files are "
+                          f"written into a folder of that name; remove the file or write "
+                          f"to another output folder")
     used = set()
     if folder.is_dir():
         for p in folder.iterdir():
@@ -168,6 +179,11 @@ def next_index(folder: str | Path) -> int:
     -------
     int
         >= 0.
+
+    Raises
+    ------
+    ConfigError
+        ``folder`` exists and is not a folder (:func:`used_indexes`).
     """
     used = used_indexes(folder)
     i = 0
@@ -192,7 +208,7 @@ def free_index(folder: str | Path) -> int:
     Raises
     ------
     ConfigError
-        The folder already holds runs 00-99.
+        The folder already holds runs 00-99, or it exists and is not a folder.
     """
     idx = next_index(folder)
     if idx > 99:

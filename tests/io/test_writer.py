@@ -160,3 +160,18 @@ def test_timestamps_the_readers_refuse_are_refused_before_anything_is_written(
     assert f"stream {stream!r} of run x/ASPHALT/00" in msg and f"row {row}" in msg, msg
     assert word in msg, msg
     assert not any(tmp_path.iterdir())
+
+
+def test_a_file_where_the_terrain_folder_goes_is_refused_before_anything_is_simulated(
+        tmp_path, capsys):
+    # terrain simulate simulated the run, then failed on mkdir with a bare "File exists"
+    from terrain.cli import main
+    from terrain.io.writer import free_index
+    (tmp_path / "GRASS").write_text("not a folder")
+    with pytest.raises(ConfigError, match="GRASS is a file, not a terrain folder"):
+        free_index(tmp_path / "GRASS")
+    assert main(["simulate", "--vehicle", "husky", "--terrain", "GRASS", "--scenario",
+                 "spin", "--duration-s", "0.5", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert "is a file, not a terrain folder" in err and "Traceback" not in err
+    assert (tmp_path / "GRASS").read_text() == "not a folder"
