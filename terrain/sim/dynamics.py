@@ -558,8 +558,12 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
         Twist change of the step, m/s, m/s, rad/s.
     linearised : ContactForces
         The contact forces whose linearisation gave the last Newton step (``first`` when
-        there was only one): the body received ``linearised.force + linearised.jacobian
-        last_step`` (:func:`terrain.sim.forces.step_traction_coefficient`).
+        there was only one). Where that step is ``exact`` the body received
+        ``linearised.force + linearised.jacobian last_step``
+        (:func:`terrain.sim.forces.step_traction_coefficient`); elsewhere the step's matrix
+        was not ``linearised.jacobian`` (central differences) or the step was halved, and
+        the body received ``end.force`` within the tolerance (``M`` tolerance ``/ dt`` in
+        force) where the step converged.
     last_step : ndarray, shape (3,)
         That last Newton step, m/s, m/s, rad/s.
     iterations : int
@@ -567,6 +571,12 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
     converged : bool
         False where the iterations stopped at the limit with the residual above tolerance
         (``dv`` is then the iterate of the smallest velocity error).
+    exact : bool
+        True where the last Newton step was a full step solved with
+        ``linearised.jacobian`` itself: the linearly implicit step, or a full Newton step
+        within the first :data:`IMPLICIT_ANALYTIC_ITERATIONS` (the contact laws' own slopes).
+    end : ContactForces
+        The contact forces at the returned twist ``vel + dv``.
 
     Raises
     ------
@@ -608,7 +618,8 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
                         else f"at the linearly implicit step's twist {(vel + dv).tolist()}")
         raise NonFiniteInputError(f"non-finite forces {where_forces} at {where} (the "
                                   f"implicit-Euler step cannot be solved)")
-    best = (error, dv, linearised, last)
+    exact = True
+    best = (error, dv, linearised, last, exact, contact)
     iterations = 0
     while error > tolerance and iterations < IMPLICIT_MAX_ITERATIONS:
         jacobian = contact.jacobian
@@ -639,15 +650,18 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
                 # no halving lowers the error: the full step (the residual of a step
                 # towards a root further away can rise on the way)
                 scale, trial, trial_contact, trial_residual, trial_error = full
+        # the body receives the linearisation of ``contact`` over the step only where the
+        # step is full and solved with ``contact.jacobian`` itself
+        exact = scale == 1.0 and iterations < IMPLICIT_ANALYTIC_ITERATIONS
         iterations += 1
         linearised, last = contact, scale * step
         dv, contact, residual, error = trial, trial_contact, trial_residual, trial_error
         if error < best[0]:
-            best = (error, dv, linearised, last)
+            best = (error, dv, linearised, last, exact, contact)
     if error <= tolerance:
-        return dv, linearised, last, iterations, True
-    _, dv, linearised, last = best
-    return dv, linearised, last, iterations, False
+        return dv, linearised, last, iterations, True, exact, contact
+    _, dv, linearised, last, exact, contact = best
+    return dv, linearised, last, iterations, False, exact, contact
 
 
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
@@ -920,7 +934,7 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                           dt * (m_inv @ force), normal, soil_k)
         # implicit Euler, Newton steps from the linearly implicit one (LAPACK gesv, LU with
         # partial pivoting, as numpy.linalg.solve, without its per-call overhead)
-        dv, lin, last, its, ok = implicit_euler_step(
+        dv, lin, last, its, ok, exact, end = implicit_euler_step(
             m_mat, m_inv, dt, vel, contact, force, contact_at, f"step {k} (t = {t_s[k]:.3f} s)")
         n_iter += its
         n_unconverged += not ok
@@ -936,10 +950,14 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         pose = pose + dt * np.array([vel[0] * cm - vel[1] * sm, vel[0] * sm + vel[1] * cm,
                                      vel[2]])
         dist += dt * float(np.hypot(vel[0], vel[1]))
-        # motor torque: traction plus torque-only hysteresis, plus wheel inertia
-        # (the traction the body received over the step, as the implicit step linearised it)
-        t_contact = contact_torque_nm(layout, ter, step_traction_coefficient(lin, maps, last),
-                                      contact.rim_speed_m_s, normal)
+        # motor torque: traction plus torque-only hysteresis, plus wheel inertia; the
+        # traction the body received over the step: the implicit step's linearisation where
+        # its last Newton step was exact (full, on the contact laws' own slopes), else the
+        # traction at the converged twist, within the step's tolerance of what the body
+        # received (M tolerance / dt in force; until 2026-11-30 the linearisation there
+        # too, off by up to 0.009 of mu per contact on ICE, 0.018 on PACKED_SNOW)
+        mu_step = step_traction_coefficient(lin, maps, last) if exact else end.mu
+        t_contact = contact_torque_nm(layout, ter, mu_step, contact.rim_speed_m_s, normal)
         torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + drive_inertia * dw
         pose_out[j] = pose
         twist_out[j] = vel
