@@ -66,7 +66,8 @@ from terrain.vehicles.swerve import swerve_inverse
 from terrain.vehicles.skid_steer import skid_steer_inverse
 
 __all__ = ["PhysicsResult", "PlantSnapshot", "ControlHook", "integrate", "wheel_commands",
-           "implicit_euler_step", "IMPLICIT_TOLERANCE_PER_S3", "IMPLICIT_MAX_ITERATIONS",
+           "implicit_euler_step", "ImplicitStep", "IMPLICIT_TOLERANCE_PER_S3",
+           "IMPLICIT_MAX_ITERATIONS",
            "IMPLICIT_ANALYTIC_ITERATIONS", "IMPLICIT_DIFFERENCE_STEP",
            "IMPLICIT_LINE_SEARCH_HALVINGS",
            "slope_attitude", "SLIDE_SPEED_M_S", "SLIP_SPEED_FLOOR_M_S", "SOIL_SPEED_M_S",
@@ -509,10 +510,49 @@ def _checked_steer_offset(steer_offset_rad, geometry: ContactGeometry) -> np.nda
     return offset
 
 
+class ImplicitStep(NamedTuple):
+    """One implicit-Euler step of the body twist (:func:`implicit_euler_step`).
+
+    Parameters
+    ----------
+    dv : ndarray, shape (3,)
+        Twist change of the step, m/s, m/s, rad/s.
+    linearised : ContactForces
+        The contact forces whose linearisation gave the last Newton step (the step's first
+        contact forces when there was only one). Where that step is ``exact`` the body
+        received ``linearised.force + linearised.jacobian last_step``
+        (:func:`terrain.sim.forces.step_traction_coefficient`); elsewhere the step's matrix
+        was not ``linearised.jacobian`` (central differences) or the step was halved, and
+        the body received ``end.force`` within the tolerance (``M`` tolerance ``/ dt`` in
+        force) where the step converged.
+    last_step : ndarray, shape (3,)
+        That last Newton step, m/s, m/s, rad/s.
+    iterations : int
+        Newton steps after the first.
+    converged : bool
+        False where the iterations stopped at the limit with the residual above tolerance
+        (``dv`` is then the iterate of the smallest velocity error).
+    exact : bool
+        True where the last Newton step was a full step solved with
+        ``linearised.jacobian`` itself: the linearly implicit step, or a full Newton step
+        within the first :data:`IMPLICIT_ANALYTIC_ITERATIONS` (the contact laws' own slopes).
+    end : ContactForces
+        The contact forces at the returned twist ``vel + dv``.
+    """
+
+    dv: np.ndarray
+    linearised: ContactForces
+    last_step: np.ndarray
+    iterations: int
+    converged: bool
+    exact: bool
+    end: ContactForces
+
+
 def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np.ndarray,
                         first: ContactForces, force: np.ndarray,
                         contact_at: Callable[[np.ndarray], ContactForces],
-                        where: str = "") -> tuple:
+                        where: str = "") -> ImplicitStep:
     """One implicit-Euler step of the body twist, ``M dV = dt (F(V + dV) + G)``, by Newton.
 
     The first Newton step is the linearly implicit one, ``(M - dt J) dV = dt (F(V) + G)``
@@ -554,29 +594,9 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
 
     Returns
     -------
-    dv : ndarray, shape (3,)
-        Twist change of the step, m/s, m/s, rad/s.
-    linearised : ContactForces
-        The contact forces whose linearisation gave the last Newton step (``first`` when
-        there was only one). Where that step is ``exact`` the body received
-        ``linearised.force + linearised.jacobian last_step``
-        (:func:`terrain.sim.forces.step_traction_coefficient`); elsewhere the step's matrix
-        was not ``linearised.jacobian`` (central differences) or the step was halved, and
-        the body received ``end.force`` within the tolerance (``M`` tolerance ``/ dt`` in
-        force) where the step converged.
-    last_step : ndarray, shape (3,)
-        That last Newton step, m/s, m/s, rad/s.
-    iterations : int
-        Newton steps after the first.
-    converged : bool
-        False where the iterations stopped at the limit with the residual above tolerance
-        (``dv`` is then the iterate of the smallest velocity error).
-    exact : bool
-        True where the last Newton step was a full step solved with
-        ``linearised.jacobian`` itself: the linearly implicit step, or a full Newton step
-        within the first :data:`IMPLICIT_ANALYTIC_ITERATIONS` (the contact laws' own slopes).
-    end : ContactForces
-        The contact forces at the returned twist ``vel + dv``.
+    ImplicitStep
+        ``(dv, linearised, last_step, iterations, converged, exact, end)``: the twist
+        change, what the body received over the step and whether the step converged.
 
     Raises
     ------
@@ -659,9 +679,9 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
         if error < best[0]:
             best = (error, dv, linearised, last, exact, contact)
     if error <= tolerance:
-        return dv, linearised, last, iterations, True, exact, contact
+        return ImplicitStep(dv, linearised, last, iterations, True, exact, contact)
     _, dv, linearised, last, exact, contact = best
-    return dv, linearised, last, iterations, False, exact, contact
+    return ImplicitStep(dv, linearised, last, iterations, False, exact, contact)
 
 
 def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_length_m: float,
@@ -934,11 +954,11 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
                                           dt * (m_inv @ force), normal, soil_k)
         # implicit Euler, Newton steps from the linearly implicit one (LAPACK gesv, LU with
         # partial pivoting, as numpy.linalg.solve, without its per-call overhead)
-        dv, lin, last, its, ok, exact, end = implicit_euler_step(
+        implicit = implicit_euler_step(
             m_mat, m_inv, dt, vel, contact, force, contact_at, f"step {k} (t = {t_s[k]:.3f} s)")
-        n_iter += its
-        n_unconverged += not ok
-        vel_new = vel + dv
+        n_iter += implicit.iterations
+        n_unconverged += not implicit.converged
+        vel_new = vel + implicit.dv
         j = k + 1
         acc_out[j] = [(vel_new[0] - vel[0]) / dt - vel[2] * vel[1],
                       (vel_new[1] - vel[1]) / dt + vel[2] * vel[0]]
@@ -956,7 +976,8 @@ def integrate(vehicle, geometry: ContactGeometry, terrains: tuple, segment_lengt
         # traction at the converged twist, within the step's tolerance of what the body
         # received (M tolerance / dt in force; until 2026-11-30 the linearisation there
         # too, off by up to 0.009 of mu per contact on ICE, 0.018 on PACKED_SNOW)
-        mu_step = step_traction_coefficient(lin, maps, last) if exact else end.mu
+        mu_step = (step_traction_coefficient(implicit.linearised, maps, implicit.last_step)
+                   if implicit.exact else implicit.end.mu)
         t_contact = contact_torque_nm(layout, ter, mu_step, contact.rim_speed_m_s, normal)
         torque = np.bincount(motor_of, weights=t_contact, minlength=nm) + drive_inertia * dw
         pose_out[j] = pose
