@@ -61,7 +61,8 @@ from terrain.errors import (ConfigError, ShapeError, config_flags, config_intege
 from terrain.terramechanics.resistance import (bekker_sinkage_m, check_slide_speed,
                                                compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
-                                             patch_mobilisation)
+                                             curve_resistance_terms,
+                                             curve_traction_terms, patch_mobilisation)
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -823,12 +824,49 @@ class SlipCompactionResistance:
         CurveCoefficients
         """
         c = self.base.coefficients(abs_slip, soil_resistance)
+        return CurveCoefficients(c.mu, c.dmu_ds,
+                                 *self._compacted(abs_slip, c.resistance, c.dresistance_ds))
+
+    def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The traction half of :meth:`coefficients`: ``base``'s (which no resistance moves).
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+
+        Returns
+        -------
+        mu, dmu_ds : ndarray, shape (...)
+        """
+        return curve_traction_terms(self.base, abs_slip, 0.0)
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of :meth:`coefficients` (``base``'s traction not computed).
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain (passed to ``base``).
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return self._compacted(abs_slip,
+                               *curve_resistance_terms(self.base, abs_slip, soil_resistance))
+
+    def _compacted(self, abs_slip: np.ndarray, resistance: np.ndarray,
+                   dresistance_ds: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """``base``'s resistance and slope with the slip-sinkage compaction added."""
         soil, width = self.contact.soil, self.contact.width_m
         z, dz = slip_sinkage_m(self.contact, self.load_n, np.asarray(abs_slip, dtype=float))
         r, dr_dz = compaction_resistance_n(z, width, soil.k_c, soil.k_phi, soil.n)
-        return CurveCoefficients(
-            c.mu, c.dmu_ds, c.resistance + (r - self._static_compaction_n) / self.load_n,
-            c.dresistance_ds + dr_dz * dz / self.load_n)
+        return (resistance + (r - self._static_compaction_n) / self.load_n,
+                dresistance_ds + dr_dz * dz / self.load_n)
 
     @cached_property
     def _static_compaction_n(self) -> float:

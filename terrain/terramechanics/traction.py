@@ -78,7 +78,11 @@ class TractionCurve(Protocol):  # noqa: D101 - documented below
 
     A curve is a frozen, cited parameter dataclass with one method; the equations are the
     module-level functions (:func:`burckhardt_traction`, :func:`janosi_traction`,
-    :func:`brixius_traction`, :func:`brixius_motion_resistance`).
+    :func:`brixius_traction`, :func:`brixius_motion_resistance`). The project's curves also
+    have its two halves, ``traction_terms(abs_slip)`` and ``resistance_terms(abs_slip,
+    soil_resistance)``, so that a curve built of two (:class:`TractionAndResistance`) does
+    not compute the half it drops (:func:`curve_traction_terms`,
+    :func:`curve_resistance_terms`).
     """
 
     def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
@@ -214,7 +218,10 @@ def brixius_motion_resistance(abs_slip: np.ndarray, mobility_number: float
 def _constant(abs_slip: np.ndarray, value: float) -> tuple[np.ndarray, np.ndarray]:
     """``value`` and a zero slope at every slip, as float arrays of the slip's shape (an
     integer slip such as ``np.array([0, 1])`` must not truncate ``value`` to 0)."""
-    return np.full(np.shape(abs_slip), float(value)), np.zeros(np.shape(abs_slip))
+    shape = np.shape(abs_slip)
+    constant = np.empty(shape)
+    constant.fill(float(value))     # np.full's values, without its Python wrapper
+    return constant, np.zeros(shape)
 
 
 @dataclass(frozen=True)
@@ -272,8 +279,39 @@ class BurckhardtCurve:
         -------
         CurveCoefficients
         """
-        return CurveCoefficients(*burckhardt_traction(abs_slip, self.c1, self.c2, self.c3),
-                                 *_constant(abs_slip, soil_resistance))
+        return CurveCoefficients(*self.traction_terms(abs_slip),
+                                 *self.resistance_terms(abs_slip, soil_resistance))
+
+    def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The traction half of :meth:`coefficients`: :func:`burckhardt_traction`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+
+        Returns
+        -------
+        mu, dmu_ds : ndarray, shape (...)
+        """
+        return burckhardt_traction(abs_slip, self.c1, self.c2, self.c3)
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of :meth:`coefficients`: the terrain's constant resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return _constant(abs_slip, soil_resistance)
 
 
 @dataclass(frozen=True)
@@ -332,9 +370,39 @@ class JanosiCurve:
         -------
         CurveCoefficients
         """
-        return CurveCoefficients(*janosi_traction(abs_slip, self.mu_max, self.shear_slip,
-                                                  self.residual_ratio),
-                                 *_constant(abs_slip, soil_resistance))
+        return CurveCoefficients(*self.traction_terms(abs_slip),
+                                 *self.resistance_terms(abs_slip, soil_resistance))
+
+    def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The traction half of :meth:`coefficients`: :func:`janosi_traction`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+
+        Returns
+        -------
+        mu, dmu_ds : ndarray, shape (...)
+        """
+        return janosi_traction(abs_slip, self.mu_max, self.shear_slip, self.residual_ratio)
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of :meth:`coefficients`: the terrain's constant resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return _constant(abs_slip, soil_resistance)
 
     @classmethod
     def from_soil(cls, cohesion_pa: float, friction_angle_deg: float,
@@ -442,8 +510,39 @@ class BrixiusCurve:
         -------
         CurveCoefficients
         """
-        return CurveCoefficients(*brixius_traction(abs_slip, self.mobility_number),
-                                 *brixius_motion_resistance(abs_slip, self.mobility_number))
+        return CurveCoefficients(*self.traction_terms(abs_slip),
+                                 *self.resistance_terms(abs_slip, soil_resistance))
+
+    def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The traction half of :meth:`coefficients`: :func:`brixius_traction`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+
+        Returns
+        -------
+        mu, dmu_ds : ndarray, shape (...)
+        """
+        return brixius_traction(abs_slip, self.mobility_number)
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of :meth:`coefficients`: :func:`brixius_motion_resistance`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Ignored: Brixius curves carry their own motion resistance.
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return brixius_motion_resistance(abs_slip, self.mobility_number)
 
 
 @dataclass(frozen=True)
@@ -503,9 +602,96 @@ class TractionAndResistance:
         -------
         CurveCoefficients
         """
-        mu, dmu_ds = self.traction.coefficients(abs_slip, soil_resistance)[:2]
-        return CurveCoefficients(mu, dmu_ds,
-                                 *self.resistance.coefficients(abs_slip, soil_resistance)[2:])
+        return CurveCoefficients(*curve_traction_terms(self.traction, abs_slip, soil_resistance),
+                                 *self.resistance_terms(abs_slip, soil_resistance))
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of :meth:`coefficients`, that of :attr:`resistance`.
+
+        Its ``resistance_terms`` where it has one (the curves of this module and
+        :class:`~terrain.terramechanics.lateral.SlipCompactionResistance`: its traction is
+        not computed only to be dropped), else the last two of its ``coefficients``.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return curve_resistance_terms(self.resistance, abs_slip, soil_resistance)
+
+    def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The traction half of :meth:`coefficients`, that of :attr:`traction`.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+
+        Returns
+        -------
+        mu, dmu_ds : ndarray, shape (...)
+        """
+        return curve_traction_terms(self.traction, abs_slip, 0.0)
+
+
+def curve_traction_terms(curve: TractionCurve, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+    """Traction coefficient of a curve and its slope, without its motion resistance.
+
+    ``curve.traction_terms`` where the curve has that method (every curve of the project),
+    else ``curve.coefficients(...)[:2]`` (a curve that only meets :class:`TractionCurve`).
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve.
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    soil_resistance : float
+        Constant motion resistance coefficient of the terrain (for ``coefficients``).
+
+    Returns
+    -------
+    mu, dmu_ds : ndarray, shape (...)
+    """
+    terms = getattr(curve, "traction_terms", None)
+    if terms is None:
+        return tuple(curve.coefficients(abs_slip, soil_resistance)[:2])
+    return terms(abs_slip)
+
+
+def curve_resistance_terms(curve: TractionCurve, abs_slip: np.ndarray,
+                           soil_resistance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Motion resistance coefficient of a curve and its slope, without its traction.
+
+    ``curve.resistance_terms`` where the curve has that method (every curve of the
+    project), else ``curve.coefficients(...)[2:]`` (a curve that only meets
+    :class:`TractionCurve`).
+
+    Parameters
+    ----------
+    curve : TractionCurve
+        Traction-slip curve.
+    abs_slip : ndarray, shape (...)
+        Slip magnitude in [0, 1].
+    soil_resistance : float
+        Constant motion resistance coefficient of the terrain.
+
+    Returns
+    -------
+    resistance, dresistance_ds : ndarray, shape (...)
+    """
+    terms = getattr(curve, "resistance_terms", None)
+    if terms is None:
+        return tuple(curve.coefficients(abs_slip, soil_resistance)[2:])
+    return terms(abs_slip, soil_resistance)
 
 
 @dataclass(frozen=True)
@@ -574,18 +760,17 @@ def brixius_mobility_number(cone_index_pa: float, section_width_m: float,
 
 
 @numba.njit(cache=True)
-def _mobilisation_kernel(a: np.ndarray, kr: float, b: float, s0: float,
-                         c2: float) -> tuple[np.ndarray, np.ndarray]:
+def _mobilisation_kernel(a: np.ndarray, kr: float, b: float, s0: float, c2: float,
+                         g: np.ndarray, dg: np.ndarray) -> None:
     """Patch means and slopes of :func:`patch_mobilisation`, element by element (compiled).
 
     ``kr <= 0``: the exponential curve, ``g(x) = 1 - (1 - e^-x) / x``, ``g'(x)``; else the
     hump-type curve with the constants of :func:`_hump_constants`. Below ``1e-4`` (of
     ``a``, resp. ``U``) the second-order series, where the closed forms lose their digits.
+    Written into ``g`` and ``dg`` (1-D, the size of ``a``), allocated by the caller: two
+    arrays and a tuple returned cost more than the arithmetic on a vehicle's contacts.
     """
-    n = a.size
-    g = np.empty(n)
-    dg = np.empty(n)
-    for i in range(n):
+    for i in range(a.size):
         x = a[i]
         if kr <= 0.0:
             if x < 1e-4:
@@ -607,7 +792,6 @@ def _mobilisation_kernel(a: np.ndarray, kr: float, b: float, s0: float,
             f_u = kr * (1.0 + b * math.exp(1.0 - u)) * e1
             g[i] = mean
             dg[i] = (f_u - mean) / u / s0
-    return g, dg
 
 
 @functools.lru_cache(maxsize=32)
@@ -668,8 +852,10 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
             raise ConfigError(f"patch_mobilisation: residual_ratio must be in (0, 1), got "
                               f"{residual_ratio}")
         b, s0, c2 = _hump_constants(kr)
-    g, dg = _mobilisation_kernel(np.ascontiguousarray(a).reshape(-1), kr, b, s0, c2)
-    return g.reshape(a.shape), dg.reshape(a.shape)
+    g, dg = np.empty(a.shape), np.empty(a.shape)
+    _mobilisation_kernel(np.ascontiguousarray(a).reshape(-1), kr, b, s0, c2, g.reshape(-1),
+                         dg.reshape(-1))
+    return g, dg
 
 
 def numeric_array(owner: str, name: str, value: np.ndarray | float) -> np.ndarray:
