@@ -588,10 +588,12 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
         dmu = coef.dmu_ds
         # secant slope mu(s)/s where it exceeds the tangent: keeps the Newton step from
         # overshooting past the traction peak (no limit cycles on stiff, peaked curves)
-        secant = np.where(abs_s > 1e-6, mu / np.where(abs_s > 1e-6, slip, 1.0), dmu)
+        slipping = abs_s > 1e-6
+        secant = np.where(slipping, mu / np.where(slipping, slip, 1.0), dmu)
         dmu = np.maximum(dmu, secant)
+    dmu_dv = dmu * ds_dv
     f_long = normal * (mu - f_soil * th_s)
-    k_long = normal * (dmu * ds_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
+    k_long = normal * (dmu_dv - f_soil * (1.0 - th_s * th_s) / SOIL_SPEED_M_S)
     k_long = k_long - normal * th_s * coef.dresistance_ds * sign_s * ds_dv
     if combined:
         f_lat = normal * comb.mu_side
@@ -602,9 +604,8 @@ def contact_forces(layout: ContactLayout, maps: VelocityMaps, terrain, twist: np
     force = a_force.T @ f_long + b_mat.T @ f_lat
     jac = (a_force.T * k_long) @ a_mat + (b_mat.T * k_lat) @ b_mat
     if combined:
-        return ContactForces(force, jac, mu, wr, dmu * ds_dv)
-    return ContactForces(force, jac, mu, wr, dmu * ds_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu,
-                         share)
+        return ContactForces(force, jac, mu, wr, dmu_dv)
+    return ContactForces(force, jac, mu, wr, dmu_dv, v_long, slip, ds_dv, coef.dmu_ds, dmu, share)
 
 
 def _rate_weakened(coef, rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray, soil):

@@ -968,7 +968,11 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
         ``slide_speed_m_s`` not a finite value > 0.
     """
     check_slide_speed("soil_lateral_force_and_slope", slide_speed_m_s)
-    n_load = np.clip(np.asarray(normal_load_n, dtype=float), 0.0, contact.load_grid_n[-1])
+    # np.clip's values bit for bit (-0.0 and NaN kept) for a floor of 0 and a top above it
+    # (soil_contact's table tops out at a load > 0), without its Python wrapper (called on
+    # every simulator step)
+    n_load = np.minimum(np.maximum(0.0, np.asarray(normal_load_n, dtype=float)),
+                        contact.load_grid_n[-1])
     sunk = contact.soil.slip_sinkage_ratio is not None and slip_ratio is not None
     if sunk:
         strength, length = slip_sunk_strength_n(contact, n_load,
@@ -1000,8 +1004,8 @@ def soil_lateral_force_and_slope(contact: SoilContact, normal_load_n: np.ndarray
     th = np.tanh(x_l)
     force = -th * strength * g
     # secant F / v = -(tanh(x)/x) (S / v_slide) g, finite (0) at v = 0
-    x_safe = np.where(np.abs(x_l) > 1e-9, x_l, 1.0)
-    ratio = np.where(np.abs(x_l) > 1e-9, th / x_safe, 1.0)
+    moving = np.abs(x_l) > 1e-9
+    ratio = np.where(moving, th / np.where(moving, x_l, 1.0), 1.0)
     return force, -ratio * strength * g / slide_speed_m_s, share_long
 
 

@@ -212,7 +212,9 @@ def sae_slip_and_velocity_slope(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarra
         raise EstimationError(f"speed_floor_m_s must be finite and > 0, got {speed_floor_m_s}")
     ratio, den = _ratio(rim_speed_m_s, v_long_m_s, speed_floor_m_s)
     v = v_long_m_s
-    body_dominant = np.abs(v) >= np.maximum(np.abs(rim_speed_m_s), speed_floor_m_s)
+    # |v| >= max(|w|, floor) is den == |v| (den = max(|w|, |v|, floor); False with a NaN,
+    # as the comparison): one comparison instead of recomputing the maximum
+    body_dominant = den == np.abs(v)
     # where the body dominates, |v| >= floor > 0: v^2 needs no clamp (one at 1e-6 m^2/s^2
     # bent the slope below 1 mm/s)
     ds_dv = np.where(body_dominant,
