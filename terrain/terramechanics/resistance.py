@@ -279,7 +279,19 @@ def can_turn_in_place(geometry, terrain) -> bool:
 def _check_bekker_plate(load_n: float, width_m: float, length_m: float, k_c: float,
                         k_phi: float, n: float) -> None:
     """Refuse a load, plate or soil for which Bekker's relation has no sinkage (ConfigError):
-    a load that is not a finite real number (any sign: an unloaded plate does not sink)."""
+    a load that is not a finite real number (any sign: an unloaded plate does not sink).
+
+    Called some 4000 times by each simulator run's soil tables (the fixed point of
+    :func:`terrain.terramechanics.lateral.wheel_sinkage_m`): floats (NumPy's too) that pass
+    every check below return on the first test; anything else takes the checks.
+    """
+    if (isinstance(load_n, float) and isinstance(width_m, float)
+            and isinstance(length_m, float) and isinstance(k_c, float)
+            and isinstance(k_phi, float) and isinstance(n, float)
+            and math.isfinite(load_n) and 0.0 < width_m < math.inf
+            and 0.0 < length_m < math.inf and 0.0 < n < math.inf
+            and 0.0 < k_c / width_m + k_phi < math.inf):
+        return
     config_numbers("bekker_sinkage_m", load_n=load_n, k_c=k_c, k_phi=k_phi)
     if not math.isfinite(load_n):
         raise ConfigError(f"bekker_sinkage_m.load_n must be a finite load, N, got {load_n!r}")
