@@ -628,7 +628,8 @@ def implicit_euler_step(m_mat: np.ndarray, m_inv: np.ndarray, dt: float, vel: np
         """The contact forces at ``vel + change``, the residual and its velocity error."""
         at = contact_at(vel + change)
         res = dt * (at.force + other_force) - m_mat @ change
-        return at, res, float(np.max(np.abs(m_inv @ res)))
+        # the array's own max: np.max's reduction (NaN propagated) without its wrapper
+        return at, res, float(np.abs(m_inv @ res).max())
 
     contact, residual, error = residual_at(dv)
     if not math.isfinite(error):
