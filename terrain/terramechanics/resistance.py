@@ -176,12 +176,13 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
     # along the slide (the soil law clips its load at 0 as well); 0 and -0.0 kept as given
     normal = np.where(normal < 0.0, 0.0, normal)
     v = np.asarray(v_lateral_m_s)
-    th_l = np.tanh(v / slide_speed_m_s)
-    force = -mu_lateral * normal * th_l
     x_l = v / slide_speed_m_s
+    th_l = np.tanh(x_l)
+    minus_mu_n = -mu_lateral * normal     # (-mu) N, once for the force and the slope
+    force = minus_mu_n * th_l
     big = np.abs(x_l) > 1e-6
     secant = np.where(big, th_l / np.where(big, x_l, 1.0), 1.0)
-    return force, -mu_lateral * normal * secant / slide_speed_m_s
+    return force, minus_mu_n * secant / slide_speed_m_s
 
 
 def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s: np.ndarray,
