@@ -224,8 +224,30 @@ def _constant(abs_slip: np.ndarray, value: float) -> tuple[np.ndarray, np.ndarra
     return constant, np.zeros(shape)
 
 
+class ConstantResistance:
+    """Mixin of the curves whose motion resistance is the terrain's constant coefficient
+    (:class:`BurckhardtCurve`, :class:`JanosiCurve`): their ``resistance_terms``."""
+
+    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
+                         ) -> tuple[np.ndarray, np.ndarray]:
+        """The resistance half of ``coefficients``: the terrain's constant resistance.
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain.
+
+        Returns
+        -------
+        resistance, dresistance_ds : ndarray, shape (...)
+        """
+        return _constant(abs_slip, soil_resistance)
+
+
 @dataclass(frozen=True)
-class BurckhardtCurve:
+class BurckhardtCurve(ConstantResistance):
     """Burckhardt tyre-road friction curve.
 
     Parameters
@@ -296,26 +318,9 @@ class BurckhardtCurve:
         """
         return burckhardt_traction(abs_slip, self.c1, self.c2, self.c3)
 
-    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
-                         ) -> tuple[np.ndarray, np.ndarray]:
-        """The resistance half of :meth:`coefficients`: the terrain's constant resistance.
-
-        Parameters
-        ----------
-        abs_slip : ndarray, shape (...)
-            Slip magnitude in [0, 1].
-        soil_resistance : float
-            Constant motion resistance coefficient of the terrain.
-
-        Returns
-        -------
-        resistance, dresistance_ds : ndarray, shape (...)
-        """
-        return _constant(abs_slip, soil_resistance)
-
 
 @dataclass(frozen=True)
-class JanosiCurve:
+class JanosiCurve(ConstantResistance):
     """Janosi-Hanamoto traction curve averaged over the contact patch.
 
     Parameters
@@ -386,23 +391,6 @@ class JanosiCurve:
         mu, dmu_ds : ndarray, shape (...)
         """
         return janosi_traction(abs_slip, self.mu_max, self.shear_slip, self.residual_ratio)
-
-    def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
-                         ) -> tuple[np.ndarray, np.ndarray]:
-        """The resistance half of :meth:`coefficients`: the terrain's constant resistance.
-
-        Parameters
-        ----------
-        abs_slip : ndarray, shape (...)
-            Slip magnitude in [0, 1].
-        soil_resistance : float
-            Constant motion resistance coefficient of the terrain.
-
-        Returns
-        -------
-        resistance, dresistance_ds : ndarray, shape (...)
-        """
-        return _constant(abs_slip, soil_resistance)
 
     @classmethod
     def from_soil(cls, cohesion_pa: float, friction_angle_deg: float,
