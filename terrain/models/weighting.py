@@ -22,7 +22,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
+from terrain.errors import ConfigError, ShapeError, refuse_missing
 from terrain.models.cv import fit_with_groups
 
 
@@ -47,19 +47,19 @@ def run_shares(labels, groups) -> np.ndarray:
     ShapeError
         ``labels`` and ``groups`` are not 1-D arrays of one length.
     NonFiniteInputError
-        A label or run is missing (NaN or None); the message names the argument and the
+        A label or run is missing (NaN, None, NaT or pandas' NA:
+        :func:`terrain.errors.refuse_missing`); the message names the argument and the
         first window.
     """
     labels, groups = np.asarray(labels), np.asarray(groups)
     if labels.ndim != 1 or labels.shape != groups.shape:
         raise ShapeError(f"labels {labels.shape} and groups {groups.shape} must be 1-D "
                          "arrays of one length")
+    # the shared rule (pandas.isna): a NaT run, pandas' NA or a float32 NaN in an object
+    # array passed a check of its own, equalled no run and kept np.empty's unset value
     for name, values in (("labels", labels), ("groups", groups)):
-        missing = np.flatnonzero(_missing(values))
-        if missing.size:
-            raise NonFiniteInputError(f"{name} holds {missing.size} missing value(s) (NaN or "
-                                      f"None), the first at index {missing[0]}: every window "
-                                      "needs its class and its run")
+        refuse_missing("run_shares", name, values, "value(s)",
+                       "every window needs its class and its run")
     share = np.empty(labels.size)
     for c in np.unique(labels):
         in_class = labels == c
@@ -68,17 +68,6 @@ def run_shares(labels, groups) -> np.ndarray:
             rows = in_class & (groups == r)
             share[rows] = 1.0 / (runs.size * rows.sum())
     return share
-
-
-def _missing(values: np.ndarray) -> np.ndarray:
-    """``(n,)`` True where a label or run is missing: NaN in a float array, None or a float
-    NaN in an object array (a NaN equals nothing, so its window would get no share)."""
-    if values.dtype.kind in "fc":
-        return np.isnan(values)
-    if values.dtype.kind == "O":
-        return np.array([v is None or (isinstance(v, float) and v != v) for v in values],
-                        dtype=bool)
-    return np.zeros(values.shape, dtype=bool)
 
 
 def within_class_run_weights(labels, groups) -> np.ndarray:
