@@ -48,8 +48,8 @@ from sklearn.utils.validation import (check_array, check_consistent_length, chec
                                       column_or_1d)
 
 from features.calculators import hann_taper
-from terrain.errors import (ConfigError, ShapeError, config_integer, config_numbers,
-                            config_positive, refuse_missing)
+from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_integer,
+                            config_numbers, config_positive, refuse_missing)
 from terrain.models.cv import class_keeping_split, restored_on_failure
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -307,14 +307,16 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             not a finite number >= 0, ``band_limits_hz`` not one frequency >= 0 Hz (or
             ``inf``) per channel (a scalar, booleans or text included).
         ValueError
-            ``sample_weight`` not numbers (booleans, text), of another length than ``y``,
-            negative, not finite, or all 0
+            ``sample_weight`` not numbers (booleans, text), negative or all 0
             (on the training runs: the early-stopping runs are never drawn);
             windows not finite, booleans, not 2-D or 3-D, or empty (0 channels or 0
             samples). A refused fit leaves the model as it was (unfitted, or its previous
             fit whole: :func:`~terrain.models.cv.restored_on_failure`).
+        ShapeError
+            ``sample_weight`` not of shape ``(n_windows,)`` (a scalar, 2-D, another length).
         NonFiniteInputError
-            A label of ``y`` is missing (NaN or None), named by its index.
+            A label of ``y`` is missing (NaN or None), named by its index; a weight of
+            ``sample_weight`` NaN or infinite.
         """
         with restored_on_failure(self):
             return self._fit(X, y, groups, sample_weight)
@@ -375,10 +377,19 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             if kind not in "iuf":   # .astype(float) read a mask as 1 / 0, the text "2" as 2
                 raise ValueError(f"sample_weight must hold numbers, got dtype "
                                  f"{np.asarray(sample_weight).dtype} (booleans: a mask?)")
-            sample_weight = column_or_1d(sample_weight).astype(float)
-            check_consistent_length(y_idx, sample_weight)
-            if not (np.isfinite(sample_weight).all() and (sample_weight >= 0).all()
-                    and sample_weight.sum() > 0):
+            sample_weight = np.asarray(sample_weight, dtype=float)
+            # (scikit-learn's column_or_1d named a scalar or 2-D one "y", its length check
+            # named neither: "inconsistent numbers of samples: [12, 3]")
+            if sample_weight.shape != y_idx.shape:
+                raise ShapeError(f"sample_weight must hold one weight per window, shape "
+                                 f"{y_idx.shape}; got shape {sample_weight.shape} "
+                                 "(inconsistent numbers of samples)")
+            if not np.isfinite(sample_weight).all():
+                raise NonFiniteInputError("sample_weight must be finite and >= 0, got "
+                                          f"{int((~np.isfinite(sample_weight)).sum())} NaN "
+                                          "or infinite weight(s), the first at index "
+                                          f"{np.flatnonzero(~np.isfinite(sample_weight))[0]}")
+            if not ((sample_weight >= 0).all() and sample_weight.sum() > 0):
                 raise ValueError("sample_weight must be finite and >= 0, and the weights not "
                                  "all zero")
         train_split, callbacks = None, []

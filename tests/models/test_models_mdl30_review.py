@@ -12,7 +12,7 @@ from hypothesis import strategies as st
 from sklearn.base import BaseEstimator, ClassifierMixin, clone
 
 from features.calculators import hann_taper
-from terrain.errors import NonFiniteInputError
+from terrain.errors import NonFiniteInputError, ShapeError
 from terrain.models.cnn import (POWER_FLOOR, RawCNNClassifier, SpectrogramCNNClassifier,
                                 log_spectrogram, segment_samples)
 from terrain.models.cv import member_probabilities
@@ -139,6 +139,29 @@ def test_same_seed_and_weights_give_the_same_model_whatever_their_scale(seed, po
     np.testing.assert_array_equal(first, fit(w))
     np.testing.assert_array_equal(first, fit(w * 2.0 ** power))     # the sampler normalises
     np.testing.assert_allclose(first.sum(axis=1), 1.0, rtol=0, atol=4 * np.finfo(float).eps)
+
+
+@pytest.mark.parametrize("weights", [2.0, np.ones((12, 2)), np.ones(11), np.ones(13)])
+def test_sample_weight_of_another_shape_is_a_shape_error_naming_it(weights):
+    X, y, _ = _windows()
+    with pytest.raises(ShapeError, match="sample_weight"):
+        RawCNNClassifier(**TINY).fit(X, y, sample_weight=weights)
+
+
+@pytest.mark.parametrize("weights, error, match", [
+    (np.full(12, np.nan), NonFiniteInputError, "sample_weight must be finite"),
+    (np.r_[np.inf, np.ones(11)], NonFiniteInputError, "sample_weight must be finite"),
+    (np.r_[-1.0, np.ones(11)], ValueError, "sample_weight must be finite and >= 0"),
+    (np.zeros(12), ValueError, "not all zero"),
+    (np.ones(12, dtype=bool), ValueError, "booleans"),
+    (np.array(["1"] * 12), ValueError, "must hold numbers"),
+])
+def test_bad_sample_weight_values_are_refused_before_any_training(weights, error, match):
+    X, y, _ = _windows()
+    model = RawCNNClassifier(**TINY)
+    with pytest.raises(error, match=match):
+        model.fit(X, y, sample_weight=weights)
+    assert not hasattr(model, "net_")
 
 
 # -- within-class run weights ---------------------------------------------------------------
