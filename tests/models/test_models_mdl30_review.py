@@ -128,6 +128,19 @@ def test_the_scaling_comes_from_the_training_windows_only(cls):
                                .reshape(model.mean_.shape), rtol=1e-5, atol=1e-5)
 
 
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_runs_held_out_for_early_stopping_take_no_part_in_the_scaling(cls):
+    X, y, groups = _windows(n_runs=8)
+    X[np.isin(groups, [0, 1, 2, 3])] *= 1 + groups[np.isin(groups, [0, 1, 2, 3]), None, None]
+    model = cls(**TINY, early_stopping=True, validation_splits=2, patience=1).fit(X, y, groups)
+    train = ~np.isin(groups, model.validation_groups_)
+    assert 0 < train.sum() < y.size
+    Z = model._inputs(X[train])
+    axes = (0,) + tuple(range(2 + model._per_bin, Z.ndim))
+    np.testing.assert_allclose(model.mean_, Z.mean(axis=axes, dtype=np.float64)
+                               .reshape(model.mean_.shape), rtol=1e-5, atol=1e-5)
+
+
 @settings(max_examples=5, deadline=None)
 @given(seed=st.integers(0, 2 ** 32 - 1), power=st.integers(-3, 3))
 def test_same_seed_and_weights_give_the_same_model_whatever_their_scale(seed, power):
@@ -258,3 +271,35 @@ def test_a_member_missing_a_class_gives_it_zero_and_its_rows_still_sum_to_one():
     proba = ensemble.predict_proba(None)
     np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=0, atol=4 * np.finfo(float).eps)
     np.testing.assert_allclose(proba[0], [0.45, 0.15, 0.4], atol=1e-7)
+
+
+def test_a_fold_trained_without_a_class_scores_it_zero_and_its_rows_sum_to_one():
+    from sklearn.linear_model import LogisticRegression
+
+    from terrain.models.cv import cross_validate
+
+    class Float32Member(LogisticRegression):
+        def predict_proba(self, X):
+            return super().predict_proba(X).astype(np.float32)
+
+    runs = [("a", f"a{i}") for i in range(3)] + [("b", f"b{i}") for i in range(3)] + \
+        [("c", "c0")]       # c has one run: the folds that test it train without it
+    y = np.repeat([label for label, _ in runs], 4)
+    groups = np.repeat([run for _, run in runs], 4)
+    t = np.tile(np.arange(4.0), len(runs))
+    X = np.random.default_rng(0).normal(size=(y.size, 3))
+    report = cross_validate(lambda seed: Float32Member(), X, y, groups, groups, t, t + 1.0,
+                            seeds=(0,), n_splits=3)
+    proba = report.predictions[["proba_a", "proba_b", "proba_c"]].to_numpy()
+    assert proba.dtype == np.float64
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=0, atol=4 * np.finfo(float).eps)
+    assert (proba[:, 2] == 0).any()     # a fold without c gives it 0 in its column
+
+
+def test_a_seeded_spectrogram_cnn_with_noise_copies_and_weights_is_reproducible():
+    X, y, groups = _windows(n_samples=30)
+    w = within_class_run_weights(y, groups)
+    fit = (lambda: SpectrogramCNNClassifier(**TINY, rate_hz=20.0, augment_noise_std=0.3,
+                                            random_state=5)
+           .fit(X, y, sample_weight=w).predict_proba(X))
+    np.testing.assert_array_equal(fit(), fit())
