@@ -101,7 +101,7 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
 
     Parameters
     ----------
-    X : numpy.ndarray
+    X : array-like
         ``(n_windows, n_channels, n_samples)`` signals (SI units of each channel).
     rate_hz : float
         Sampling rate, Hz.
@@ -133,6 +133,8 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     ------
     ConfigError
         ``rate_hz``, ``segment_s`` or ``hop_s`` not a finite number > 0.
+    ShapeError
+        Windows of no sample (``n_samples`` 0, or a scalar ``X``).
 
     References
     ----------
@@ -141,6 +143,10 @@ def log_spectrogram(X: np.ndarray, rate_hz: float, segment_s: float, hop_s: floa
     extension of the window, its last zero dropped, for spectral analysis with the DFT).
     """
     config_positive("log_spectrogram", rate_hz=rate_hz, segment_s=segment_s, hop_s=hop_s)
+    X = np.asarray(X)       # (a list: a bare AttributeError on X.shape)
+    if X.ndim == 0 or X.shape[-1] == 0:     # (NumPy's "Invalid number of FFT data points")
+        raise ShapeError(f"log_spectrogram: windows of shape {X.shape} hold no sample: "
+                         "give (n_windows, n_channels, n_samples) with n_samples >= 1")
     seg = segment_samples(rate_hz, segment_s, X.shape[-1])
     hop = max(1, int(round(hop_s * rate_hz)))
     # frames end at the newest sample: the first starts after the (n - seg) % hop oldest

@@ -303,3 +303,28 @@ def test_a_seeded_spectrogram_cnn_with_noise_copies_and_weights_is_reproducible(
                                             random_state=5)
            .fit(X, y, sample_weight=w).predict_proba(X))
     np.testing.assert_array_equal(fit(), fit())
+
+
+@pytest.mark.parametrize("cls", [RawCNNClassifier, SpectrogramCNNClassifier])
+def test_labels_renamed_in_the_same_order_and_runs_as_text_train_the_same_network(cls):
+    from terrain.models.weighting import run_balanced
+
+    X, y, groups = _windows()
+    base = run_balanced(cls(**TINY, random_state=1)).fit(X, y, groups)
+    named = np.where(y == "a", 10, 20)                      # a < b as 10 < 20
+    renamed = run_balanced(cls(**TINY, random_state=1)).fit(X, named, groups.astype(str))
+    np.testing.assert_array_equal(base.predict_proba(X), renamed.predict_proba(X))
+    assert list(renamed.classes_) == [10, 20]
+    np.testing.assert_array_equal(renamed.predict(X), np.where(base.predict(X) == "a", 10, 20))
+
+
+@pytest.mark.parametrize("X", [np.ones((2, 1, 0)), np.ones(0), np.float64(1.0)])
+def test_windows_of_no_sample_are_a_shape_error_not_numpys_fft_refusal(X):
+    with pytest.raises(ShapeError, match="hold no sample"):
+        log_spectrogram(X, 10.0, 0.5, 0.2)
+
+
+def test_windows_given_as_nested_lists_are_read_as_an_array():
+    x = [[[0.0, 1.0, 0.5, -1.0, 2.0]]]
+    np.testing.assert_array_equal(log_spectrogram(x, 10.0, 0.5, 0.2)[0],
+                                  log_spectrogram(np.asarray(x), 10.0, 0.5, 0.2)[0])
