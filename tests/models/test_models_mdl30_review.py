@@ -328,3 +328,26 @@ def test_windows_given_as_nested_lists_are_read_as_an_array():
     x = [[[0.0, 1.0, 0.5, -1.0, 2.0]]]
     np.testing.assert_array_equal(log_spectrogram(x, 10.0, 0.5, 0.2)[0],
                                   log_spectrogram(np.asarray(x), 10.0, 0.5, 0.2)[0])
+
+
+@settings(max_examples=100, deadline=None)
+@given(seed=st.integers(0, 2 ** 16), n_members=st.integers(1, 9),
+       certain=st.booleans())
+def test_a_soft_vote_of_float32_members_stays_a_distribution(seed, n_members, certain):
+    rng = np.random.default_rng(seed)
+    classes = np.array(["a", "b", "c"])
+    members = []
+    for k in range(n_members):
+        known = classes[np.sort(rng.choice(3, size=rng.integers(2, 4), replace=False))]
+        proba = rng.dirichlet(np.full(known.size, 0.5), 5)
+        if certain:      # every member certain of class "a" where it knows it
+            proba = np.eye(known.size)[np.zeros(5, dtype=int)]
+        members.append((f"m{k}", _Fixed(rng.permutation(known) if not certain else known,
+                                        proba)))
+    ensemble = SoftVotingEnsemble(members, weights=tuple(rng.uniform(0.1, 1.0, n_members)))
+    ensemble.classes_ = classes
+    ensemble.estimators_ = [m for _, m in members]
+    ensemble.weights_ = np.asarray(ensemble.weights) / np.sum(ensemble.weights)
+    proba = ensemble.predict_proba(None)
+    assert proba.dtype == np.float64 and (proba >= 0).all() and (proba <= 1).all()
+    np.testing.assert_allclose(proba.sum(axis=1), 1.0, rtol=0, atol=8 * np.finfo(float).eps)
