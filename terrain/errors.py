@@ -11,6 +11,8 @@ stuck sensor) are :class:`DataWarning`: they say what the reader assumed and nev
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 
 
@@ -351,6 +353,60 @@ def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> N
                                   + (f": {why}" if why else ""))
 
 
+def _type_family(kind: type) -> object:
+    """The family of a label's type that sorts together: numbers (Python's and NumPy's
+    integers, floats and booleans), text (``str``, ``numpy.str_``), bytes, or the type
+    itself."""
+    if issubclass(kind, (numbers.Real, np.bool_)):
+        return numbers.Real
+    for family in (str, bytes):
+        if issubclass(kind, family):
+            return family
+    return kind
+
+
+def refuse_mixed_types(owner: str, name: str, values) -> None:
+    """Raise :class:`MixedTypesError` where ``values`` mix types that do not sort together
+    (text beside numbers, bytes beside text, e.g. ``np.array([1, "r2"], dtype=object)``):
+    the shared refusal of labels and runs before the models sort them (NumPy's ``unique``
+    and ``sorted`` failed with the bare "'<' not supported between instances of 'str' and
+    'int'", naming no argument).
+
+    Python's and NumPy's numbers (integers, floats, booleans) are one family and pass, as
+    does anything NumPy reads as one dtype (a list of ``1`` and ``"r2"`` reads as text);
+    only an object array is judged. Missing entries are :func:`refuse_missing`'s, judged
+    first.
+
+    Parameters
+    ----------
+    owner : str
+        The function or object refusing, put first in the message.
+    name : str
+        The argument's name.
+    values : array_like
+        ``(n,)`` labels or run ids.
+
+    Raises
+    ------
+    MixedTypesError
+        "<owner>: <name> mixes values of type <first> and <second> (the first <second> at
+        index <i>): NumPy cannot sort them; give every one the same type (e.g. all text)".
+    """
+    flat = np.asarray(values)
+    if flat.dtype != object:
+        return
+    flat = flat.ravel()
+    kinds = set(map(type, flat.tolist()))
+    if len({_type_family(kind) for kind in kinds}) < 2:
+        return
+    family = _type_family(type(flat[0]))
+    index = next(i for i, v in enumerate(flat) if _type_family(type(v)) is not family)
+    first, second = type(flat[0]).__name__, type(flat[index]).__name__
+    raise MixedTypesError(f"{owner}: {name} mixes values of type {first} and {second} (the "
+                          f"first {second} at index {index}): NumPy cannot sort them; give "
+                          "every one the same type (e.g. all text)")
+
+
 class ConfigError(TerrainError, ValueError):
     """An unknown name or an out-of-range parameter in a configuration.
 
@@ -619,3 +675,8 @@ class CovarianceError(EstimationError):
 
 class TimeStepError(EstimationError):
     """A time step is not strictly positive and finite, or timestamps do not increase."""
+
+
+class MixedTypesError(EstimationError, TypeError):
+    """Labels or runs of types that do not sort together (text beside numbers): a
+    :class:`TypeError` too, as NumPy's own refusal was (:func:`refuse_mixed_types`)."""

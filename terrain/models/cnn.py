@@ -49,7 +49,8 @@ from sklearn.utils.validation import (check_array, check_consistent_length, chec
 
 from features.calculators import hann_taper
 from terrain.errors import (ConfigError, NonFiniteInputError, ShapeError, config_integer,
-                            config_numbers, config_positive, refuse_missing)
+                            config_numbers, config_positive, refuse_missing,
+                            refuse_mixed_types)
 from terrain.models.cv import class_keeping_split, restored_on_failure
 
 #: Floor added to the squared STFT magnitude before the logarithm (signal units^2).
@@ -323,6 +324,10 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         NonFiniteInputError
             A label of ``y`` is missing (NaN or None), named by its index; a weight of
             ``sample_weight`` NaN or infinite.
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``y``, or ``groups``
+            with early stopping (:func:`~terrain.models.cv.class_keeping_split`)
+            (:func:`terrain.errors.refuse_mixed_types`).
         """
         with restored_on_failure(self):
             return self._fit(X, y, groups, sample_weight)
@@ -354,6 +359,7 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
         check_consistent_length(X, y)
         # (None beside text reached NumPy's bare "'<' not supported" in np.unique)
         refuse_missing(type(self).__name__, "y", y, "label(s)")
+        refuse_mixed_types(type(self).__name__, "y", y)
         check_classification_targets(y)
         self.n_features_in_ = X.shape[1]
         self.window_shape_ = as_windows(X).shape[1:]

@@ -30,7 +30,7 @@ from sklearn.base import clone
 from sklearn.model_selection import LeaveOneGroupOut, StratifiedGroupKFold, StratifiedKFold
 
 from terrain.errors import (ConfigError, ShapeError, config_integer, duplicated, first_items,
-                            is_integer, listed, refuse_missing)
+                            is_integer, listed, refuse_missing, refuse_mixed_types)
 from terrain.models.metrics import confusion, run_majority_accuracy, window_metrics
 from terrain.run import clock_slack
 
@@ -332,12 +332,17 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
     NonFiniteInputError
         A missing run (NaN or None) in ``groups``: ``grouped`` made one split unit of every
         such window (NumPy's ``unique`` counts NaN once).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     if len(labels) != len(groups):     # scikit-learn's "inconsistent numbers of samples"
         raise ShapeError(f"iter_splits: labels ({len(labels)}) and groups ({len(groups)}) "
                          "must hold one entry per window")
     refuse_missing("iter_splits", "groups", groups, "run(s)",
                    "every window needs its split unit")
+    for name, values in (("labels", labels), ("groups", groups)):
+        refuse_mixed_types("iter_splits", name, values)   # (NumPy's bare "'<' not supported")
     if protocol in ("grouped", "paper"):
         # NumPy's bare "Seed must be between 0 and 2**32 - 1" (grouped), or a seed taken
         # modulo 2**32 without a word (paper: -1 was 20, 2**32 the published split)
@@ -479,6 +484,9 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
         A run in ``groups`` is missing (NaN or None); the message names the first window.
     ShapeError
         ``groups`` not 1-D, or (``labels`` given) not of the length of ``labels``.
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``groups`` or ``labels``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     config_integer(setting, n_splits, 2)
     if groups is not None:
@@ -491,6 +499,9 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
                              f"window{also}")
         # every NaN is a new object: a set counted one run per missing window
         refuse_missing(purpose, "groups", groups, "run(s)", "every window needs its run")
+        refuse_mixed_types(purpose, "groups", groups)
+    if labels is not None:
+        refuse_mixed_types(purpose, "labels", labels)
     runs = [] if groups is None else sorted(set(np.asarray(groups).tolist()), key=str)
     if len(runs) < n_splits:
         given = first_items(runs, word="run") if runs else "no groups given"
@@ -550,6 +561,9 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
         A missing run (:func:`require_runs`).
     ShapeError
         ``groups`` not 1-D or of another length than ``labels`` (:func:`require_runs`).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
+        (:func:`require_runs`) (:func:`terrain.errors.refuse_mixed_types`).
     """
     require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
     # (NumPy's bare "Seed must be between 0 and 2**32 - 1" otherwise)
@@ -781,11 +795,17 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     RuntimeError
         If a split unit lands on both sides of a split (an internal invariant; it signals a
         bug, not bad input).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``y``, ``groups`` or
+        ``run_ids`` (1 and "1" were made one class) (:func:`terrain.errors.refuse_mixed_types`).
     """
     from joblib import Parallel, delayed
 
     y = np.asarray(y)
     refuse_missing("cross_validate", "y", y, "label(s)")  # astype(str): the class "nan"
+    # (astype(str) made 1 and "1" one class; mixed groups failed in NumPy's sort)
+    for name, values in (("y", y), ("groups", groups), ("run_ids", run_ids)):
+        refuse_mixed_types("cross_validate", name, values)
     for name, values in (("X", X), ("groups", groups), ("run_ids", run_ids),
                          ("t_start_s", t_start_s), ("t_end_s", t_end_s)):
         n = values.shape[0] if hasattr(values, "shape") else len(values)   # (sparse X)

@@ -24,7 +24,7 @@ from sklearn.metrics import log_loss
 from sklearn.utils import _safe_indexing, get_tags
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError, duplicated, holds_booleans, listed
+from terrain.errors import ConfigError, duplicated, holds_booleans, listed, refuse_mixed_types
 from terrain.models.cv import (class_keeping_split, fit_with_groups, member_probabilities,
                                restored_on_failure)
 
@@ -244,6 +244,10 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             ``y`` is None. A refused fit (here or a member's) leaves the ensemble as it was
             (unfitted, or its previous fit whole:
             :func:`~terrain.models.cv.restored_on_failure`).
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``y``, or ``groups``
+            when the weights are chosen (:func:`~terrain.models.cv.class_keeping_split`)
+            (:func:`terrain.errors.refuse_mixed_types`).
         """
         with restored_on_failure(self):
             return self._fit(X, y, groups)
@@ -261,6 +265,7 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             raise ConfigError(f"{type(self).__name__}: member name(s) {listed(twice)} given "
                               "twice; name each member once")
         y = np.asarray(y)
+        refuse_mixed_types(type(self).__name__, "y", y)   # (NumPy's bare "'<' not supported")
         # X.shape of an array or sparse matrix; np.shape would call an array-like's
         # __array_function__ (scikit-learn's _NotAnArray refuses it)
         shape = X.shape if hasattr(X, "shape") else np.asarray(X).shape

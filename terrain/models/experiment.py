@@ -20,7 +20,7 @@ from features.transformers import WindowFeatures
 from features.windows import (WindowConfig, WindowSet, make_windows, resolve_signals,
                               runs_track_m)
 from terrain.errors import (ConfigError, config_flags, config_integer, config_positive,
-                            duplicated, is_integer)
+                            duplicated, is_integer, refuse_mixed_types)
 from terrain.io.shipped import DATASET_SPECS, load_dataset
 from terrain.models.cv import (PROTOCOLS, CVReport, TrainingWindows, block_notes,
                                cross_validate, fit_with_groups, grouped_units, training_units)
@@ -388,7 +388,11 @@ def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> 
     ConfigError
         One class only in ``labels`` (no window at all is left to the caller, whose
         message says why none was cut).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
+    refuse_mixed_types("check_two_classes", "labels", labels)   # (NumPy's bare TypeError)
     classes = np.unique(labels)
     if len(classes) == 1:
         ids = sorted({str(r) for r in run_ids})

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 from sklearn.metrics import accuracy_score, confusion_matrix, f1_score, recall_score
 
-from terrain.errors import ConfigError, ShapeError, duplicated, refuse_missing
+from terrain.errors import (ConfigError, ShapeError, duplicated, refuse_missing,
+                            refuse_mixed_types)
 
 
 def _check_windows(owner: str, **columns) -> None:
@@ -25,6 +26,7 @@ def _check_windows(owner: str, **columns) -> None:
     for name, values in columns.items():
         refuse_missing(owner, name, values, "run(s)" if name == "groups" else "label(s)",
                        "every window needs its class and its run")
+        refuse_mixed_types(owner, name, values)   # (NumPy's bare "'<' not supported")
 
 
 def _check_classes(owner: str, classes: Sequence[str]) -> list:
@@ -71,6 +73,9 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
         A class repeated in ``classes`` (it was scored twice in the means).
     NonFiniteInputError
         A missing label (NaN or None) in ``y_true`` or ``y_pred``.
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``y_true`` or ``y_pred``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("window_metrics", classes)
@@ -119,6 +124,9 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
     NonFiniteInputError
         A group or a prediction is missing (NaN or None: pandas' ``groupby`` would leave its
         windows out of the vote, and out of :func:`run_majority_accuracy`'s count).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``y_pred`` or ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("majority_vote", y_pred=y_pred, groups=groups)
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
@@ -153,6 +161,9 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
         not match length of index"), or empty (was NaN).
     NonFiniteInputError
         A missing label or group (:func:`majority_vote`).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``y_true``, ``y_pred`` or
+        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("run_majority_accuracy", y_true=y_true, y_pred=y_pred, groups=groups)
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
@@ -188,6 +199,9 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
         ``classes`` empty, or a class repeated in it (a row of the matrix got no count).
     NonFiniteInputError
         A missing label (NaN or None) in ``y_true`` or ``y_pred``.
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``y_true`` or ``y_pred``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("confusion", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("confusion", classes)

@@ -21,7 +21,8 @@ from sklearn.svm import SVC
 from sklearn.utils.multiclass import type_of_target
 
 from features.transformers import WindowFeatures
-from terrain.errors import ConfigError, config_flags, config_integer, config_positive
+from terrain.errors import (ConfigError, config_flags, config_integer, config_positive,
+                            refuse_mixed_types)
 from terrain.models.compiled import CompiledPipeline
 from terrain.models.cv import require_runs
 
@@ -152,6 +153,9 @@ class GroupedSearch(GridSearchCV):
             Fewer runs than inner folds (``SVMConfig.inner_splits``), ``groups`` missing
             included (the message names the runs), or every class with fewer windows than
             inner folds.
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``y`` or ``groups``
+            (:func:`~terrain.models.cv.require_runs`) (:func:`terrain.errors.refuse_mixed_types`).
         """
         require_runs(params.get("groups"), self.cv.get_n_splits(),
                      "the grouped hyperparameter search", "SVMConfig.inner_splits",
@@ -388,7 +392,12 @@ class SVMPipeline(CompiledPipeline):
             A calibrated final step (``SVMConfig.probability``) and a class with a single
             training window, or every class with fewer windows than the calibration's
             folds (:func:`check_calibration_classes`).
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``y``
+            (:func:`terrain.errors.refuse_mixed_types`).
         """
+        if y is not None:   # (scikit-learn's bare "Unknown label type: unknown")
+            refuse_mixed_types(type(self).__name__, "y", y)
         check_calibration_classes(self.steps[-1][1], y)
         super().fit(X, y, **params)
         final = self.steps[-1][1]

@@ -22,7 +22,7 @@ from sklearn.base import BaseEstimator, ClassifierMixin, clone
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
-from terrain.errors import ConfigError, ShapeError, refuse_missing
+from terrain.errors import ConfigError, ShapeError, refuse_missing, refuse_mixed_types
 from terrain.models.cv import fit_with_groups
 
 
@@ -50,6 +50,9 @@ def run_shares(labels, groups) -> np.ndarray:
         A label or run is missing (NaN, None, NaT or pandas' NA:
         :func:`terrain.errors.refuse_missing`); the message names the argument and the
         first window.
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     labels, groups = np.asarray(labels), np.asarray(groups)
     if labels.ndim != 1 or labels.shape != groups.shape:
@@ -60,6 +63,7 @@ def run_shares(labels, groups) -> np.ndarray:
     for name, values in (("labels", labels), ("groups", groups)):
         refuse_missing("run_shares", name, values, "value(s)",
                        "every window needs its class and its run")
+        refuse_mixed_types("run_shares", name, values)   # (NumPy's bare "'<' not supported")
     share = np.empty(labels.size)
     for c in np.unique(labels):
         in_class = labels == c
@@ -93,6 +97,9 @@ def within_class_run_weights(labels, groups) -> np.ndarray:
         ``labels`` and ``groups`` are not 1-D arrays of one length.
     NonFiniteInputError
         A label or run is missing (NaN or None, :func:`run_shares`).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
+        (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
     """
     share = run_shares(labels, groups)
     _, inverse, per_class = np.unique(np.asarray(labels), return_inverse=True,
@@ -192,6 +199,9 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
             ``y`` and ``groups`` differ in length.
         NonFiniteInputError
             A label or run is missing (NaN or None, :func:`run_shares`).
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``y`` or ``groups``
+            (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
         """
         if groups is None:
             raise ConfigError("run-balanced weights need the run of every window (groups)")

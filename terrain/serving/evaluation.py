@@ -29,7 +29,7 @@ import pandas as pd
 
 from features.windows import WindowConfig, make_windows, runs_track_m
 from terrain.errors import (ConfigError, DataFormatError, config_integer, config_positive,
-                            duplicated, first_items)
+                            duplicated, first_items, refuse_mixed_types)
 from terrain.models.cv import iter_splits
 from terrain.run import TIME, Run
 from terrain.serving.model import StreamModel
@@ -72,7 +72,15 @@ def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels
         ``(n_windows, n_classes)``.
     classes : list of str
         Sorted class names (column order).
+
+    Raises
+    ------
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
+    for name, values in (("labels", labels), ("groups", groups)):
+        refuse_mixed_types("grouped_oof_proba", name, values)   # (NumPy's bare TypeError)
     classes = sorted(np.unique(labels).tolist())
     proba = np.zeros((len(labels), len(classes)))
     for train, test in iter_splits("grouped", labels, groups, seed, n_splits):
@@ -107,7 +115,14 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
         ``(n_windows,)`` decided class index of each window; :data:`NO_DECISION` (-1) for
         the windows of a run before its first window with finite probabilities (a NaN or
         inf one is no evidence: :meth:`~terrain.serving.smoothing.ForwardFilter.update`).
+
+    Raises
+    ------
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``run_ids``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
+    refuse_mixed_types("smooth_runs", "run_ids", run_ids)   # (NumPy's bare TypeError)
     out = np.full(len(proba), NO_DECISION)
     for run in np.unique(run_ids):
         idx = np.flatnonzero(run_ids == run)

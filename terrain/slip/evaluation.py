@@ -19,7 +19,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
-                            ShapeError, config_positive, refuse_missing)
+                            ShapeError, config_positive, refuse_missing, refuse_mixed_types)
 from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -673,6 +673,9 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
         As :func:`fit_predict`: ``train`` and ``test`` overlap or one is empty.
     NonFiniteInputError
         A missing group (NaN or None) (:func:`terrain.errors.refuse_missing`).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     n = len(X)
     train = _window_mask("leave_one_out", "train", train, n)
@@ -687,6 +690,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     # bare TypeError sorting the groups)
     refuse_missing("leave_one_out", "groups", groups, "group(s)",
                    "every window belongs to the group it is left out with")
+    refuse_mixed_types("leave_one_out", "groups", groups)   # (NumPy's bare TypeError)
     Y = np.asarray(Y)     # (a list: a bare AttributeError on Y.shape)
     out = np.full(Y.shape, np.nan)
     for g in np.unique(groups[test]):

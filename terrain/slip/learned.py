@@ -28,7 +28,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
                             ShapeError, config_integer, config_positive, duplicated, listed,
-                            refuse_missing)
+                            refuse_missing, refuse_mixed_types)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
@@ -141,6 +141,9 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             Fewer than ``2 min_samples_leaf`` windows with a chi target (turning): chi is
             not learned, :meth:`predict` gives their median (1 without any) on every window;
             or too few runs in ``groups`` for the calibration folds (no std).
+        MixedTypesError
+            Values of types that do not sort together (text beside numbers) in ``groups``
+            (:func:`terrain.errors.refuse_mixed_types`).
         """
         # a fit that fails (scikit-learn refusing an empty table, a calibration fold) leaves
         # the model as it was: it was half refitted, n_features_in_ new and its trees old
@@ -185,6 +188,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             # (None: a bare TypeError, NaN: scikit-learn's error, both after the four fits)
             refuse_missing("SlipRegressor.fit", "groups", groups, "run(s)",
                            "the calibration folds group every window by its run")
+            refuse_mixed_types("SlipRegressor.fit", "groups", groups)   # (NumPy's sort)
         self.n_features_in_ = X.shape[1]
         if names is not None:
             self.feature_names_in_ = names
