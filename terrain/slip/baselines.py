@@ -26,7 +26,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from terrain.errors import DataWarning, ShapeError, config_positive
+from terrain.errors import DataWarning, ShapeError, config_positive, refuse_mixed_types
 from terrain.estimation.observer import AdaptiveObserverSettings, run_adaptive_observer
 from terrain.terramechanics.slip import sae_slip
 from terrain.vehicles.common import float_arrays
@@ -62,6 +62,9 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     EstimationError
         Booleans (or values that are not numbers) given for the pitch or the slip (a mask
         was fitted as pitches or slips of 0 and 1).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``terrains``
+        (:func:`terrain.errors.refuse_mixed_types`).
 
     Warns
     -----
@@ -73,6 +76,7 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
     if not (p.shape == s.shape == lab.shape):
         raise ShapeError(f"pitch, slip and terrains differ in length: {p.shape}, {s.shape}, "
                          f"{lab.shape}")
+    refuse_mixed_types("fit_pitch_slip", "terrains", lab)   # (NumPy's bare TypeError)
     finite = np.isfinite(p) & np.isfinite(s)
     if not finite.all():
         warnings.warn(f"fit_pitch_slip: {int((~finite).sum())} of {finite.size} windows with a "

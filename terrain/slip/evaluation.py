@@ -587,6 +587,9 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
         ``pred`` not ``(n, >= 3)`` (``slip_1, slip_2, chi`` first), or ``run_ids`` or
         ``terrains`` not ``(n,)``, with ``n`` the windows of ``X`` (bare numpy errors
         before).
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``run_ids`` or
+        ``terrains`` (:func:`terrain.errors.refuse_mixed_types`).
 
     Warns
     -----
@@ -610,6 +613,7 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
         if value.shape != (n,):
             raise ShapeError(f"measured_checks: {name} must have shape ({n},) (one per "
                              f"window), got {value.shape}")
+        refuse_mixed_types("measured_checks", name, value)   # (NumPy's bare TypeError)
     wz = X["wz__mean"].to_numpy()
     dv = X["vel_diff__mean"].to_numpy()
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on

@@ -456,7 +456,11 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     ------
     ConfigError
         ``n_folds`` below 2 or above the number of runs.
+    MixedTypesError
+        Values of types that do not sort together (text beside numbers) in ``groups``
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
+    refuse_mixed_types("calibration_folds", "groups", groups)   # (NumPy's bare TypeError)
     runs, run_of = np.unique(groups, return_inverse=True)
     run_of = run_of.ravel()
     if not 2 <= n_folds <= len(runs):

@@ -24,7 +24,8 @@ from terrain.models.svm import SVMConfig, svm_window_pipeline
 from terrain.serving import evaluation as serving_evaluation
 from terrain.serving.smoothing import SmoothingConfig
 from terrain.slip import evaluation as slip_evaluation
-from terrain.slip.learned import SlipRegressor
+from terrain.slip.baselines import fit_pitch_slip
+from terrain.slip.learned import SlipRegressor, calibration_folds
 
 N = 12
 LABELS = np.array(["a", "b"] * 6, dtype=object)
@@ -230,3 +231,32 @@ def test_int_labels_mixed_with_numpy_ints_split_and_weigh_as_plain_ints(labels, 
     want = list(cv.iter_splits("loro", plain, groups, 0))
     assert [(a.tolist(), b.tolist()) for a, b in got] == [(a.tolist(), b.tolist())
                                                           for a, b in want]
+
+
+def test_slip_fits_by_terrain_and_run():
+    pitch = np.linspace(0.0, 0.1, N)
+    _refused(lambda: fit_pitch_slip(pitch, pitch, MIXED_LABELS), "terrains")
+    # (1 and "1" were one terrain in the returned mapping, had NumPy sorted them)
+    _refused(lambda: fit_pitch_slip(pitch, pitch, np.array([1, "1"] * 6, dtype=object)),
+             "terrains")
+    _refused(lambda: calibration_folds(X, np.zeros((N, 4)), MIXED_RUNS, 2), "groups")
+    frame = pd.DataFrame({c: np.zeros(N) for c in (
+        "wz__mean", "vel_diff__mean", "cur_l__mean", "cur_r__mean", "phys_slip_l",
+        "phys_slip_r")})
+    pred = np.ones((N, 4))
+    _refused(lambda: slip_evaluation.measured_checks(frame, pred, RUNS, MIXED_LABELS, 0.5),
+             "terrains")
+    _refused(lambda: slip_evaluation.measured_checks(frame, pred, MIXED_RUNS, LABELS, 0.5),
+             "run_ids")
+
+
+def test_valid_terrains_fit_as_before():
+    pitch = np.linspace(0.0, 0.1, N)
+    slip = 0.02 + 0.5 * pitch
+    fitted = fit_pitch_slip(pitch, slip, LABELS.astype(str))
+    assert fitted == fit_pitch_slip(pitch, slip, LABELS)
+    assert set(fitted) == {"a", "b"}
+    folds = calibration_folds(X, np.zeros((N, 4)), RUN_NAMES["int objects"], 3)
+    want = calibration_folds(X, np.zeros((N, 4)), RUN_NAMES["int"], 3)
+    assert [(a.tolist(), b.tolist()) for a, b in folds] == [(a.tolist(), b.tolist())
+                                                            for a, b in want]
