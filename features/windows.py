@@ -21,10 +21,11 @@ import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
-from terrain.errors import (ConfigError, MissingColumnError, ShapeError, config_flags,
-                            config_numbers, config_positive, duplicated, first_items, listed)
+from terrain.errors import (ConfigError, MissingColumnError, ShapeError, TimestampError,
+                            config_flags, config_numbers, config_positive, duplicated,
+                            first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
-from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, body_rates, get_vehicle
 
 #: Husky A200 track width B, m, the wheel-odometry yaw rate channel's default: the vehicle's
@@ -643,6 +644,9 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     MissingColumnError
         The frame has no ``t_s`` column or lacks one of ``channels`` (pandas' bare KeyError
         named the whole selection), naming the first missing one.
+    TimestampError
+        The frame's ``t_s`` is not finite and strictly increasing, naming the column and
+        the first offending row.
     """
     absent = [c for c in (TIME, *channels) if c not in frame.columns]
     if absent:
@@ -655,6 +659,13 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
                           f"{missing} column(s)")
     values = frame[list(channels)].to_numpy(dtype=float)
     t = frame[TIME].to_numpy()
+    # windows are cut by position: a frame out of time order gave windows whose start times
+    # went back or repeated (or were NaN), without a word
+    out_of_order = times_out_of_order(t)
+    if out_of_order.size:
+        row = int(out_of_order[0])
+        raise TimestampError(f"window_frame: the aligned frame's times must increase "
+                             f"strictly, got {float(t[row])!r} at row {row}", None, TIME, row)
     total = len(t)
     # a hop past the frame cuts its first window only, as one of the frame's length does
     # (a count past 64 bits, 1e17 s at 100 Hz, made the starts floats: NumPy's IndexError)

@@ -1,0 +1,179 @@
+"""ftr31 review of features/windows.py and features/slip_features.py: window cutting on an
+epoch clock, frames out of time order, the slip features' units, symmetry and non-finite
+windows."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from features.slip_features import SLIP_CHANNELS, slip_feature_matrix, slip_targets
+from features.windows import WindowConfig, WindowSet, make_windows, window_frame
+from terrain.errors import TimestampError
+from terrain.run import TIME, Run
+from terrain.vehicles import HUSKY
+from test_features_ftr15_review import _run
+from test_features_ftr18_review import _shifted
+
+EPOCH_S = 1.7e9
+
+
+# --------------------------------------------------------------------------- window cutting
+
+
+@given(st.floats(2.5, 6.0), st.one_of(st.none(), st.floats(0.5, 1.5)),
+       st.floats(0.0, 1.0), st.sampled_from([None, 0.35, 0.5, 1.5]), st.integers(0, 2 ** 16))
+@settings(max_examples=10, deadline=None)
+def test_windows_on_an_epoch_clock_are_the_windows_of_the_same_run_from_zero(
+        duration, hole, fraction, hop_s, seed):
+    """Every stream's clock shifted to the Unix epoch (1.7e9 s plus a fraction of a second,
+    resolved to 2.4e-7 s only) keeps the windows, their count, the counts of what was left
+    out, and bounds shifted by it (a hop of 0.35 s is not a multiple of the 0.05 s period's
+    float)."""
+    run = _run("t/E/0", duration, seed, None if hole is None else (hole, hole + 0.6))
+    shift = EPOCH_S + fraction
+    config = WindowConfig(window_s=1.0, hop_s=hop_s, rate_hz=20.0)
+    a = make_windows([run], "all", config)
+    b = make_windows([_shifted(run, shift)], "all", config)
+    assert len(a) == len(b)
+    # (the streams' stamps themselves are rounded to 2.4e-7 s: so are the interpolated values)
+    np.testing.assert_allclose(b.X, a.X, rtol=0, atol=1e-4)
+    np.testing.assert_allclose(b.t_start_s - shift, a.t_start_s, atol=1e-6)
+    np.testing.assert_allclose(b.t_end_s - b.t_start_s, 1.0, atol=1e-6)
+    for key in ("windows", "dropped_gap", "empty_gap"):
+        assert a.counts[key] == b.counts[key]
+    for key in ("window_tail_s", "between_windows_s"):
+        assert a.counts[key] == pytest.approx(b.counts[key])
+
+
+def _frame(n, rate_hz=10.0, t0=0.0):
+    t = t0 + np.arange(n) / rate_hz
+    return pd.DataFrame({TIME: t, "a": np.arange(n, dtype=float), "b": -np.arange(n, dtype=float)})
+
+
+@pytest.mark.parametrize("kind", ["swapped", "repeated", "nan", "inf"])
+def test_window_frame_refuses_a_time_column_out_of_order_naming_column_and_row(kind):
+    # a frame out of time order was cut by position without a word: windows with start
+    # times going back, or two windows at one time, and a NaN start time
+    frame = _frame(40)
+    t = frame[TIME].to_numpy().copy()
+    if kind == "swapped":
+        t[[12, 13]] = t[[13, 12]]
+    elif kind == "repeated":
+        t[13] = t[12]
+    else:
+        t[13] = np.nan if kind == "nan" else np.inf
+    frame[TIME] = t
+    with pytest.raises(TimestampError, match=r"window_frame: .*'t_s'.* row 13") as err:
+        window_frame(frame, ("a", "b"), WindowConfig(window_s=1.0, rate_hz=10.0))
+    assert err.value.column == TIME and err.value.row == 13
+
+
+@given(st.integers(0, 60), st.integers(4, 12), st.integers(1, 15), st.floats(-1e3, 1e3))
+@settings(max_examples=60, deadline=None)
+def test_window_frame_of_an_ordered_frame_is_its_slices_at_the_hop(total, n, hop, t0):
+    """On an ordered frame: window k holds samples [k hop, k hop + n), starts at their first
+    time, ends one period after their last; a frame shorter than one window gives none, its
+    whole length counted as the tail."""
+    frame = _frame(total, 10.0, t0)
+    config = WindowConfig(window_s=n / 10.0, hop_s=hop / 10.0, rate_hz=10.0)
+    X, t_start, t_end, _, counts = window_frame(frame, ("a", "b"), config)
+    starts = np.arange(0, total - n + 1, min(hop, max(total, 1)))
+    assert len(X) == starts.size
+    for k, s in enumerate(starts):
+        np.testing.assert_array_equal(X[k, 0], np.arange(s, s + n))
+        np.testing.assert_array_equal(X[k, 1], -np.arange(s, s + n))
+    np.testing.assert_allclose(t_start, t0 + starts / 10.0)
+    np.testing.assert_allclose(t_end, t0 + (starts + n) / 10.0)
+    if starts.size == 0:
+        assert counts["window_tail_s"] == pytest.approx(total / 10.0)
+
+
+# --------------------------------------------------------------------------- slip features
+
+
+def _window(rng, n=100, speed=0.5, turn=0.2):
+    x = rng.standard_normal((len(SLIP_CHANNELS), n)) * 0.05
+    ch = {c: i for i, c in enumerate(SLIP_CHANNELS)}
+    x[ch["vel_l"]] += speed - 0.5 * turn * HUSKY.track_m
+    x[ch["vel_r"]] += speed + 0.5 * turn * HUSKY.track_m
+    x[ch["vel_diff"]] = x[ch["vel_r"]] - x[ch["vel_l"]]
+    x[ch["yaw_rate_wheels"]] = x[ch["vel_diff"]] / HUSKY.track_m
+    x[ch["cur_l"]] += 5.0
+    x[ch["cur_r"]] += 6.0
+    x[ch["cur_diff"]] = x[ch["cur_r"]] - x[ch["cur_l"]]
+    x[ch["az"]] += 9.81
+    x[ch["wz"]] += 0.8 * turn
+    return x
+
+
+@given(st.floats(-1.0, 1.0), st.floats(0.0, 5.0), st.integers(0, 2 ** 16))
+@settings(max_examples=40, deadline=None)
+def test_a_standing_or_constant_window_gives_finite_features(speed, current, seed):
+    """Constant channels (the robot standing, wheel speeds 0, or any constant speed) give
+    finite features: spreads 0, slope 0, inv_chi finite (its floor), physics slip finite."""
+    rng = np.random.default_rng(seed)
+    x = np.ones((len(SLIP_CHANNELS), 50)) * rng.uniform(-1, 1, (len(SLIP_CHANNELS), 1))
+    ch = {c: i for i, c in enumerate(SLIP_CHANNELS)}
+    x[ch["vel_l"]] = x[ch["vel_r"]] = speed
+    x[ch["vel_diff"]] = x[ch["yaw_rate_wheels"]] = 0.0
+    x[ch["cur_l"]] = x[ch["cur_r"]] = current
+    x[ch["az"]] = 9.81
+    names, v = slip_feature_matrix(x[None], SLIP_CHANNELS, 50.0, HUSKY,
+                                   {"ASPHALT": np.array([1.0])})
+    assert np.isfinite(v).all(), dict(zip(names, v[0]))
+    f = dict(zip(names, v[0]))
+    assert f["vel_mean__slope"] == pytest.approx(0.0, abs=1e-12)
+    for c in SLIP_CHANNELS:
+        assert f[f"{c}__std"] == pytest.approx(0.0, abs=1e-9)
+
+
+@given(st.floats(0.1, 1.5), st.floats(-0.5, 0.5), st.floats(0.5, 3.0), st.integers(0, 2 ** 16))
+@settings(max_examples=30, deadline=None)
+def test_slip_feature_units_follow_a_change_of_time_unit(speed, turn, accel, seed):
+    """A ramp of ``accel`` m/s^2 has slope ``accel`` (m/s per s): sampling the same ramp at
+    twice the rate over the same time keeps the slope; a yaw rate in rad/s scaled by k with
+    the wheel yaw rate scales inv_chi by nothing (a ratio, dimensionless)."""
+    rng = np.random.default_rng(seed)
+    ch = {c: i for i, c in enumerate(SLIP_CHANNELS)}
+    slopes = []
+    for rate in (25.0, 50.0):
+        n = int(2.0 * rate)
+        t = np.arange(n) / rate
+        x = _window(rng, n, speed, turn)
+        ramp = accel * (t - t.mean())
+        x[ch["vel_l"]] = speed + ramp
+        x[ch["vel_r"]] = speed + ramp
+        slopes.append(slip_feature_matrix(x[None], SLIP_CHANNELS, rate, HUSKY)[1][0])
+    names = slip_feature_matrix(x[None], SLIP_CHANNELS, 50.0, HUSKY)[0]
+    k = names.index("vel_mean__slope")
+    assert slopes[0][k] == pytest.approx(accel, rel=1e-9)
+    assert slopes[1][k] == pytest.approx(accel, rel=1e-9)
+
+
+@given(st.floats(0.0, 1.0), st.integers(0, 2 ** 16))
+@settings(max_examples=20, deadline=None)
+def test_slip_targets_of_a_run_on_an_epoch_clock_are_those_from_zero(fraction, seed):
+    """Windows and the truth shifted together to the Unix epoch give the same targets: the
+    truth samples on a window's edges go to the same window whichever way they round."""
+    rng = np.random.default_rng(seed)
+    tt = np.arange(0, 10.0, 0.01)
+    truth = pd.DataFrame({TIME: tt, "slip_1": rng.random(tt.size),
+                          "slip_2": rng.random(tt.size), "yaw_rate": 0.5 + rng.random(tt.size),
+                          "v_by": rng.standard_normal(tt.size), "terrain": "SNOW"})
+    n = 8
+    t0 = np.arange(n) * 1.0
+    X = np.stack([_window(rng, 100) for _ in range(n)])
+    ids = np.full(n, "sim", dtype=object)
+
+    def targets(shift):
+        run = Run("sim", "sim", "SNOW", {"truth": truth.assign(**{TIME: tt + shift})})
+        ws = WindowSet(X, SLIP_CHANNELS, ids, ids, np.full(n, "SNOW", dtype=object),
+                       t0 + shift, t0 + 2.0 + shift, 50.0)
+        return slip_targets([run], ws, HUSKY.track_m)
+
+    a, b = targets(0.0), targets(EPOCH_S + fraction)
+    for c in ("slip_1", "slip_2", "chi", "v_by", "yaw_rate"):
+        np.testing.assert_allclose(b[c], a[c], rtol=1e-12, atol=1e-12)
+    assert list(a["terrain"]) == list(b["terrain"])
