@@ -29,9 +29,10 @@ import numpy as np
 import pandas as pd
 
 from features.calculators import mean, regression_gain, std
-from features.windows import WindowConfig, WindowSet, derived_track_m, make_windows
-from terrain.errors import (ConfigError, config_positive, duplicated, first_items, listed,
-                            real_arrays, refuse_booleans)
+from features.windows import (WindowConfig, WindowSet, derived_track_m, make_windows,
+                              refuse_non_finite)
+from terrain.errors import (ConfigError, NonFiniteInputError, config_positive, duplicated,
+                            first_items, listed, real_arrays, refuse_booleans)
 from terrain.io.align import interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
@@ -103,6 +104,8 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     DataFormatError
         ``ws.X`` holds booleans or does not convert to real numbers
         (:func:`slip_feature_matrix`).
+    NonFiniteInputError
+        ``ws.X`` holds NaN or inf, naming the channels and the first windows.
     """
     probs = None
     if terrain_probabilities is not None:
@@ -158,6 +161,8 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text), as
         :func:`slip_feature_matrix` judges the windows.
+    NonFiniteInputError
+        ``x`` holds NaN or inf, naming the channel (:func:`slip_feature_matrix`).
     """
     x = np.asarray(x)     # (as float, a mask was samples of 0 and 1: the batch judges it)
     if x.ndim != 2 or x.shape[0] != len(channels):
@@ -210,6 +215,9 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         finite number > 0, or a terrain probability holds booleans.
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text).
+    NonFiniteInputError
+        ``x`` holds NaN or inf (a ValueError naming each channel holding one and the first
+        windows).
     """
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
@@ -229,6 +237,9 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
                           f"{x.shape}")
     # (a negative rate flipped the sign of the slope and of the pitch correction)
     config_positive("slip_feature_matrix", rate_hz=rate_hz)
+    # a NaN or inf sample made its channel's mean and std NaN, and the slope, pitch, inv_chi
+    # and physics slip read from it, without a word (make_windows keeps finite windows only)
+    refuse_non_finite(x, channels, NonFiniteInputError, "slip features")
     ch = {c: i for i, c in enumerate(channels)}
     cols: dict[str, np.ndarray] = {}
     means, stds = mean(x), std(x)

@@ -553,7 +553,8 @@ def refuse_changed_layout(transformer) -> None:
                              "columns from them; fit again")
 
 
-def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
+def refuse_non_finite(X: np.ndarray, channels: Sequence[str],
+                      error: type[ValueError] = ValueError, owner: str = "") -> None:
     """Refuse windows holding NaN or inf, naming the channels and the first windows.
 
     Parameters
@@ -562,12 +563,17 @@ def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
         ``(n_windows, n_channels, n_samples)`` windows.
     channels : sequence of str
         ``(n_channels,)`` channel names, in the order of ``X``'s second axis.
+    error : type
+        The ValueError (sub)class raised (the transformers raise ValueError, as scikit-learn
+        does; the slip features :class:`~terrain.errors.NonFiniteInputError`).
+    owner : str
+        Put first in the message (``"<owner>: "``) where not empty.
 
     Raises
     ------
     ValueError
-        A value of ``X`` is NaN or infinite; the message names each channel holding one and
-        the first windows (their index in ``X``).
+        ``error``: a value of ``X`` is NaN or infinite; the message names each channel
+        holding one and the first windows (their index in ``X``).
     """
     bad = ~np.isfinite(X)
     if not bad.any():
@@ -576,8 +582,8 @@ def refuse_non_finite(X: np.ndarray, channels: Sequence[str]) -> None:
     parts = [f"{name!r} in {first_items(np.flatnonzero(per[:, j]), word='window')}"
              for j, name in enumerate(channels) if per[:, j].any()]
     n = int(bad.sum())
-    raise ValueError(f"X contains NaN or inf ({n} value{'s' if n > 1 else ''}): "
-                     f"{'; '.join(parts)}")
+    raise error(f"{owner + ': ' if owner else ''}X contains NaN or inf ({n} "
+                f"value{'s' if n > 1 else ''}): {'; '.join(parts)}")
 
 
 def required_streams(channels: Iterable[str]) -> tuple[str, ...]:

@@ -8,9 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from features.slip_features import SLIP_CHANNELS, slip_feature_matrix, slip_targets
+from features.slip_features import (SLIP_CHANNELS, slip_feature_matrix, slip_targets,
+                                    window_feature_vector)
 from features.windows import WindowConfig, WindowSet, make_windows, window_frame
-from terrain.errors import TimestampError
+from terrain.errors import NonFiniteInputError, TimestampError
 from terrain.run import TIME, Run
 from terrain.vehicles import HUSKY
 from test_features_ftr15_review import _run
@@ -106,6 +107,21 @@ def _window(rng, n=100, speed=0.5, turn=0.2):
     x[ch["az"]] += 9.81
     x[ch["wz"]] += 0.8 * turn
     return x
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("channel", ["cur_l", "vel_r", "wz"])
+def test_slip_features_refuse_a_window_holding_nan_or_inf_naming_channel_and_window(
+        value, channel):
+    # a NaN or inf sample made that channel's mean and std NaN (and the slope, pitch,
+    # inv_chi or the physics slip with them) without a word, batch and one window alike
+    rng = np.random.default_rng(0)
+    X = np.stack([_window(rng) for _ in range(3)])
+    X[2, SLIP_CHANNELS.index(channel), 17] = value
+    with pytest.raises(NonFiniteInputError, match=rf"slip features: .*'{channel}' in window 2"):
+        slip_feature_matrix(X, SLIP_CHANNELS, 50.0, HUSKY)
+    with pytest.raises(NonFiniteInputError, match=rf"'{channel}' in window 0"):
+        window_feature_vector(X[2], SLIP_CHANNELS, 50.0, HUSKY, {"ASPHALT": 1.0})
 
 
 @given(st.floats(-1.0, 1.0), st.floats(0.0, 5.0), st.integers(0, 2 ** 16))
