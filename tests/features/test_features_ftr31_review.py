@@ -178,18 +178,36 @@ def test_slip_targets_of_a_run_on_an_epoch_clock_are_those_from_zero(fraction, s
     truth = pd.DataFrame({TIME: tt, "slip_1": rng.random(tt.size),
                           "slip_2": rng.random(tt.size), "yaw_rate": 0.5 + rng.random(tt.size),
                           "v_by": rng.standard_normal(tt.size), "terrain": "SNOW"})
-    n = 8
-    t0 = np.arange(n) * 1.0
-    X = np.stack([_window(rng, 100) for _ in range(n)])
+    n = 20      # 1.7 s windows at a 0.35 s hop: edges between the truth's 0.01 s stamps
+    t0 = np.arange(n) * 0.35
+    X = np.stack([_window(rng, 85) for _ in range(n)])
     ids = np.full(n, "sim", dtype=object)
 
     def targets(shift):
         run = Run("sim", "sim", "SNOW", {"truth": truth.assign(**{TIME: tt + shift})})
         ws = WindowSet(X, SLIP_CHANNELS, ids, ids, np.full(n, "SNOW", dtype=object),
-                       t0 + shift, t0 + 2.0 + shift, 50.0)
+                       t0 + shift, t0 + 1.7 + shift, 50.0)
         return slip_targets([run], ws, HUSKY.track_m)
 
     a, b = targets(0.0), targets(EPOCH_S + fraction)
     for c in ("slip_1", "slip_2", "chi", "v_by", "yaw_rate"):
         np.testing.assert_allclose(b[c], a[c], rtol=1e-12, atol=1e-12)
     assert list(a["terrain"]) == list(b["terrain"])
+
+
+@pytest.mark.xfail(strict=True, reason="window_frame cuts by row and takes the frame to be on "
+                   "config.rate_hz's uniform clock without checking: a 100 Hz frame cut with "
+                   "a 50 Hz config gives 1 s of samples under 2 s bounds, a missing row puts "
+                   "both sides of a time hole in one window. terrain/serving/pyfunc.py checks "
+                   "both before its call; the fix is to move that check into one shared rule "
+                   "that window_frame runs (outside features/, not copied here)")
+@pytest.mark.parametrize("kind", ["rate", "hole"])
+def test_window_frame_refuses_a_frame_off_the_configs_uniform_clock(kind):
+    from terrain.errors import DataFormatError
+
+    frame = _frame(400, 100.0)
+    config = WindowConfig(window_s=1.0, rate_hz=50.0 if kind == "rate" else 100.0)
+    if kind == "hole":
+        frame = frame.drop(index=range(150, 170)).reset_index(drop=True)
+    with pytest.raises(DataFormatError):
+        window_frame(frame, ("a", "b"), config)
