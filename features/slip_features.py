@@ -38,7 +38,7 @@ from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
                                   pitch_std_from_accelerometer)
-from terrain.vehicles import body_rates
+from terrain.vehicles import HuskyParams, TrackedParams, body_rates
 
 #: Channels whose window statistics feed the slip models.
 SLIP_CHANNELS = ("cur_l", "cur_r", "vel_l", "vel_r", "vel_diff", "cur_diff",
@@ -99,7 +99,8 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     Raises
     ------
     ConfigError
-        A channel of :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
+        ``vehicle`` is not a skid-steer vehicle's parameters, a channel of
+        :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
         number of rows or two columns of one name (as text: ``1`` and ``'1'``).
     DataFormatError
         ``ws.X`` holds booleans or does not convert to real numbers
@@ -155,9 +156,10 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     Raises
     ------
     ConfigError
-        ``x`` is not 2-D with one row per channel and at least 2 samples, a channel is
-        missing or named twice, ``rate_hz`` is not a finite number > 0, or a terrain
-        probability is a boolean or two terrains have one name as text (``1`` and ``'1'``).
+        ``vehicle`` is not a skid-steer vehicle's parameters, ``x`` is not 2-D with one row
+        per channel and at least 2 samples, a channel is missing or named twice,
+        ``rate_hz`` is not a finite number > 0, or a terrain probability is a boolean or
+        two terrains have one name as text (``1`` and ``'1'``).
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text), as
         :func:`slip_feature_matrix` judges the windows.
@@ -210,7 +212,8 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     Raises
     ------
     ConfigError
-        A channel of :data:`SLIP_CHANNELS` is missing, a channel is named twice, ``x`` is
+        ``vehicle`` is not a skid-steer vehicle's parameters, a channel of
+        :data:`SLIP_CHANNELS` is missing, a channel is named twice, ``x`` is
         not 3-D with one row per channel and at least 2 samples, ``rate_hz`` is not a
         finite number > 0, or a terrain probability holds booleans.
     DataFormatError
@@ -219,6 +222,12 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
         ``x`` holds NaN or inf (a ValueError naming each channel holding one and the first
         windows).
     """
+    if not isinstance(vehicle, (HuskyParams, TrackedParams)):
+        # (the AgriMaRo's parameters, None or a bare track width: a bare AttributeError on
+        # vehicle.track_m)
+        raise ConfigError(f"slip features need a skid-steer vehicle (HuskyParams, "
+                          f"TrackedParams), whose left and right sides the features read; got "
+                          f"{type(vehicle).__name__}")
     missing = [c for c in SLIP_CHANNELS if c not in channels]
     if missing:
         raise ConfigError(f"slip features need channels {missing}")

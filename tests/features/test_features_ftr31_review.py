@@ -85,8 +85,8 @@ def test_window_frame_of_an_ordered_frame_is_its_slices_at_the_hop(total, n, hop
     for k, s in enumerate(starts):
         np.testing.assert_array_equal(X[k, 0], np.arange(s, s + n))
         np.testing.assert_array_equal(X[k, 1], -np.arange(s, s + n))
-    np.testing.assert_allclose(t_start, t0 + starts / 10.0)
-    np.testing.assert_allclose(t_end, t0 + (starts + n) / 10.0)
+    np.testing.assert_allclose(t_start, t0 + starts / 10.0, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(t_end, t0 + (starts + n) / 10.0, rtol=0, atol=1e-9)
     if starts.size == 0:
         assert counts["window_tail_s"] == pytest.approx(total / 10.0)
 
@@ -211,3 +211,18 @@ def test_window_frame_refuses_a_frame_off_the_configs_uniform_clock(kind):
         frame = frame.drop(index=range(150, 170)).reset_index(drop=True)
     with pytest.raises(DataFormatError):
         window_frame(frame, ("a", "b"), config)
+
+
+@pytest.mark.parametrize("vehicle", ["agrimaro", None, 0.5708])
+def test_slip_features_refuse_a_vehicle_without_left_and_right_sides(vehicle):
+    # the AgriMaRo's parameters (no track), None or a bare track width failed in a bare
+    # AttributeError "object has no attribute 'track_m'"
+    from terrain.errors import ConfigError
+    from terrain.vehicles import get_vehicle
+
+    params = get_vehicle(vehicle) if isinstance(vehicle, str) else vehicle
+    x = _window(np.random.default_rng(1))
+    with pytest.raises(ConfigError, match="skid-steer vehicle"):
+        slip_feature_matrix(x[None], SLIP_CHANNELS, 50.0, params)
+    with pytest.raises(ConfigError, match="skid-steer vehicle"):
+        window_feature_vector(x, SLIP_CHANNELS, 50.0, params)
