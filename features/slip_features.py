@@ -55,6 +55,8 @@ MIN_TURN_RATE_RAD_S = 0.1
 TURN_RATE_ROUNDING = 1e-9
 #: Floor of the wheel yaw rate in the ``inv_chi`` regression, rad/s.
 INV_CHI_FLOOR_RAD_S = 0.05
+#: Columns of a simulated run's ``truth`` stream that :func:`slip_targets` reads.
+TRUTH_COLUMNS = ("slip_1", "slip_2", "yaw_rate", "v_by", "terrain")
 
 
 def slip_windows(runs: Sequence[Run], config: WindowConfig = SLIP_WINDOW) -> WindowSet:
@@ -389,6 +391,9 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
         ``runs`` share an id, or
         ``track_m`` is not a finite number > 0 (0 made ``chi`` infinite or NaN, a negative
         track made it negative).
+    MissingColumnError
+        A ``truth`` stream lacks ``t_s`` or one of :data:`TRUTH_COLUMNS`, naming the run,
+        the stream and the column.
     """
     if track_m is not None:
         config_positive("slip_targets", track_m=track_m)
@@ -404,7 +409,8 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
                               f"{len(by_id)} run(s) given")
         if "truth" not in run.streams:
             raise ConfigError(f"run {rid} has no truth stream (slip targets need simulated runs)")
-        tr = run.streams["truth"]
+        # (a column missing was pandas' bare KeyError naming neither run nor stream)
+        tr = run.require_columns("truth", TRUTH_COLUMNS)
         sel = np.flatnonzero(ws.run_ids == rid)
         t = tr[TIME].to_numpy()
         m = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate", "v_by"]].to_numpy(float),

@@ -213,6 +213,31 @@ def test_window_frame_refuses_a_frame_off_the_configs_uniform_clock(kind):
         window_frame(frame, ("a", "b"), config)
 
 
+def _targets_inputs(channels=SLIP_CHANNELS, drop=None):
+    tt = np.arange(0, 10.0, 0.01)
+    truth = pd.DataFrame({TIME: tt, "slip_1": 0.1, "slip_2": 0.2, "yaw_rate": 0.5,
+                          "v_by": 0.0, "terrain": "SNOW"})
+    if drop is not None:
+        truth = truth.drop(columns=[drop])
+    n = 3
+    ids = np.full(n, "sim", dtype=object)
+    X = np.ones((n, len(channels), 100))
+    ws = WindowSet(X, tuple(channels), ids, ids, ids, np.arange(n) * 1.0, np.arange(n) + 2.0,
+                   50.0)
+    return Run("sim", "sim", "SNOW", {"truth": truth}, source="sim.parquet"), ws
+
+
+@pytest.mark.parametrize("column", ["slip_1", "slip_2", "yaw_rate", "v_by", "terrain"])
+def test_slip_targets_name_the_run_stream_and_column_a_truth_stream_lacks(column):
+    # pandas' bare KeyError "['v_by'] not in index" named neither run nor stream
+    from terrain.errors import MissingColumnError
+
+    run, ws = _targets_inputs(drop=column)
+    with pytest.raises(MissingColumnError, match=rf"truth.*{column}") as err:
+        slip_targets([run], ws, HUSKY.track_m)
+    assert err.value.column == column
+
+
 @pytest.mark.parametrize("vehicle", ["agrimaro", None, 0.5708])
 def test_slip_features_refuse_a_vehicle_without_left_and_right_sides(vehicle):
     # the AgriMaRo's parameters (no track), None or a bare track width failed in a bare
