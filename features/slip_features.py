@@ -388,7 +388,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
     ------
     ConfigError
         A run of the window set is not among ``runs`` or has no ``truth`` stream, two of
-        ``runs`` share an id, or
+        ``runs`` share an id, the windows lack ``vel_l`` or ``vel_r``, or
         ``track_m`` is not a finite number > 0 (0 made ``chi`` infinite or NaN, a negative
         track made it negative).
     MissingColumnError
@@ -398,6 +398,10 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
     if track_m is not None:
         config_positive("slip_targets", track_m=track_m)
     by_id: Mapping[str, Run] = runs_by_id(runs, "slip_targets")
+    speeds = [c for c in ("vel_l", "vel_r") if c not in ws.channels]
+    if speeds:      # (chi reads them: a bare KeyError after the truth was read)
+        raise ConfigError(f"slip_targets: the windows lack channel(s) {listed(speeds)}, "
+                          f"which chi reads; they hold {listed(list(ws.channels))}")
     out = pd.DataFrame(index=np.arange(len(ws)),
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
                        dtype=object)

@@ -238,6 +238,16 @@ def test_slip_targets_name_the_run_stream_and_column_a_truth_stream_lacks(column
     assert err.value.column == column
 
 
+@pytest.mark.parametrize("missing", ["vel_l", "vel_r"])
+def test_slip_targets_refuse_windows_without_the_wheel_speeds_naming_them(missing):
+    # chi reads vel_r - vel_l of the windows: a bare KeyError 'vel_r' before
+    from terrain.errors import ConfigError
+
+    run, ws = _targets_inputs([c for c in SLIP_CHANNELS if c != missing])
+    with pytest.raises(ConfigError, match=rf"slip_targets: .*'{missing}'"):
+        slip_targets([run], ws, HUSKY.track_m)
+
+
 @pytest.mark.parametrize("vehicle", ["agrimaro", None, 0.5708])
 def test_slip_features_refuse_a_vehicle_without_left_and_right_sides(vehicle):
     # the AgriMaRo's parameters (no track), None or a bare track width failed in a bare
