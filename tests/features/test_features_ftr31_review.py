@@ -261,3 +261,48 @@ def test_slip_features_refuse_a_vehicle_without_left_and_right_sides(vehicle):
         slip_feature_matrix(x[None], SLIP_CHANNELS, 50.0, params)
     with pytest.raises(ConfigError, match="skid-steer vehicle"):
         window_feature_vector(x, SLIP_CHANNELS, 50.0, params)
+
+
+def _mirrored(run):
+    """The run driven mirror-wise: left and right sides swapped, the lateral acceleration,
+    roll rate and yaw rate of the opposite sign."""
+    imu = run.streams["imu"].assign(ay=-run.streams["imu"]["ay"],
+                                    wx=-run.streams["imu"]["wx"],
+                                    wz=-run.streams["imu"]["wz"])
+    w = run.streams["wheels"]
+    wheels = w.assign(vel_l=w["vel_r"], vel_r=w["vel_l"], cur_l=w["cur_r"], cur_r=w["cur_l"])
+    return Run(run_id=run.run_id, dataset=run.dataset, terrain=run.terrain,
+               streams={"imu": imu, "wheels": wheels}, source=run.source)
+
+
+#: Slip features with a side: (feature, its mirror image, sign).
+_SIDED = {"cur_l__mean": ("cur_r__mean", 1), "vel_l__mean": ("vel_r__mean", 1),
+          "cur_l__std": ("cur_r__std", 1), "vel_l__std": ("vel_r__std", 1),
+          "vel_diff__mean": ("vel_diff__mean", -1), "cur_diff__mean": ("cur_diff__mean", -1),
+          "yaw_rate_wheels__mean": ("yaw_rate_wheels__mean", -1), "ay__mean": ("ay__mean", -1),
+          "wz__mean": ("wz__mean", -1), "phys_slip_l": ("phys_slip_r", 1)}
+
+
+@given(st.floats(2.5, 6.0), st.sampled_from([None, 0.5]), st.floats(0.0, 1e4),
+       st.integers(0, 2 ** 16))
+@settings(max_examples=8, deadline=None)
+def test_slip_features_of_a_mirrored_run_are_mirrored_whatever_its_time_origin(
+        duration, hop_s, origin, seed):
+    """A run mirrored left <-> right (and started at another time) gives the same windows
+    whose sided slip features are swapped or change sign, the others unchanged (pitch,
+    spreads of the differences, inv_chi: a ratio of two yaw rates that both change sign)."""
+    run = _run("t/M/0", duration, seed)
+    config = WindowConfig(window_s=1.0, hop_s=hop_s, rate_hz=50.0)
+    a = make_windows([run], SLIP_CHANNELS, config)
+    b = make_windows([_shifted(_mirrored(run), origin)], SLIP_CHANNELS, config)
+    assert len(a) == len(b) > 0
+    probs = pd.DataFrame({"ASPHALT": np.full(len(a), 0.7), "ICE": np.full(len(a), 0.3)})
+    from features.slip_features import slip_features
+
+    fa = slip_features(a, HUSKY, probs)
+    fb = slip_features(b, HUSKY, probs)
+    mirror = {**_SIDED, **{m: (f, s) for f, (m, s) in _SIDED.items()}}
+    for col in fa.columns:
+        other, sign = mirror.get(col, (col, 1))
+        np.testing.assert_allclose(fb[col], sign * fa[other], rtol=1e-6, atol=1e-7,
+                                   err_msg=col)
