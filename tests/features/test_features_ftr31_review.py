@@ -306,3 +306,65 @@ def test_slip_features_of_a_mirrored_run_are_mirrored_whatever_its_time_origin(
         other, sign = mirror.get(col, (col, 1))
         np.testing.assert_allclose(fb[col], sign * fa[other], rtol=1e-6, atol=1e-7,
                                    err_msg=col)
+
+
+# --------------------------------------------------------------------------- batch vs live
+
+
+@pytest.fixture(scope="module")
+def _wheel_model_and_run(borealtc_runs):
+    """A small wheel-only model (20 Hz clock, 2 s windows) fitted on two runs per terrain,
+    and a run it has not seen."""
+    from types import MappingProxyType
+
+    from terrain.models.experiment import inference_pipeline
+    from terrain.models.svm import SVMConfig
+    from terrain.serving import StreamModel
+    from terrain.serving.model import training_steps_s
+
+    train = []
+    for terrain in sorted({r.terrain for r in borealtc_runs}):
+        train += [r for r in borealtc_runs if r.terrain == terrain][:2]
+    config = WindowConfig(window_s=2.0, rate_hz=20.0)
+    ws = make_windows(train, "wheels", config)
+    pipe = inference_pipeline(ws, SVMConfig(probability=True)).fit(ws.X, ws.labels.astype(str))
+    classes = tuple(str(c) for c in np.unique(ws.labels.astype(str)))
+    model = StreamModel(pipe, ws.channels, config, classes, MappingProxyType(
+        {"channel_steps_s": training_steps_s(train, ws.channels)}))
+    seen = {r.run_id for r in train}
+    unseen = next(r for r in borealtc_runs if r.run_id not in seen and r.duration_s > 30)
+    return model, unseen
+
+
+@pytest.mark.parametrize("hop_s", [2.0, 0.35])
+@pytest.mark.parametrize("shift", [0.0, 1234.56, EPOCH_S, EPOCH_S + 0.37])
+def test_live_windows_are_the_batch_windows_whatever_the_clock_origin(
+        _wheel_model_and_run, shift, hop_s):
+    """A wheel stream on the model's clock pushed live with every stamp shifted (the Unix
+    epoch included) gives the batch windows' decisions of the run from its own origin:
+    the same decision times (shifted) and probabilities."""
+    from terrain.io.align import align_streams
+    from terrain.run import WHEEL_CHANNELS
+    from terrain.serving import (CataloguePeakTargets, SmoothingConfig, StreamConfig,
+                                 StreamService)
+    from features.windows import add_derived_channels
+
+    model, run = _wheel_model_and_run
+    frame = align_streams(run, ("wheels",), model.window.rate_hz).iloc[:400]
+    config = WindowConfig(window_s=model.window.window_s, hop_s=hop_s,
+                          rate_hz=model.window.rate_hz)
+    X, _, t1, _, _ = window_frame(add_derived_channels(frame), model.channels, config)
+    svc = StreamService(model, CataloguePeakTargets(model.classes),
+                        StreamConfig(smoothing=SmoothingConfig(dwell_s=None), hop_s=hop_s))
+    decisions = []
+    for row in frame.itertuples(index=False):
+        values = {c: getattr(row, c) for c in WHEEL_CHANNELS}
+        decisions += svc.push("wheels", row.t_s + shift, values)
+    n = min(len(decisions), len(X))
+    assert n >= len(X) - 1 > 5
+    np.testing.assert_allclose([d.t_s - shift for d in decisions[:n]], t1[:n], atol=1e-6)
+    expected = model.pipeline.predict_proba(X[:n])
+    order = [list(model.pipeline.classes_).index(c) for c in model.classes]
+    got = np.array([d.proba for d in decisions[:n]])
+    np.testing.assert_allclose(got, expected[:, order], atol=1e-4)
+    assert all(d.flags == "" for d in decisions[:n])
