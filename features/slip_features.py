@@ -103,10 +103,12 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
     ConfigError
         ``vehicle`` is not a skid-steer vehicle's parameters, a channel of
         :data:`SLIP_CHANNELS` is missing, or the probabilities have the wrong
-        number of rows or two columns of one name (as text: ``1`` and ``'1'``).
+        number of rows, two columns of one name (as text: ``1`` and ``'1'``) or a column
+        of booleans.
     DataFormatError
         ``ws.X`` holds booleans or does not convert to real numbers
-        (:func:`slip_feature_matrix`).
+        (:func:`slip_feature_matrix`), or a probability column does not convert to real
+        numbers (naming it).
     NonFiniteInputError
         ``ws.X`` holds NaN or inf, naming the channels and the first windows.
     """
@@ -116,8 +118,11 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
             raise ConfigError(f"{len(terrain_probabilities)} probability rows for {len(ws)} "
                               f"windows")
         _refuse_repeated_terrains("slip_features", terrain_probabilities.columns)
-        probs = {str(k): terrain_probabilities[k].to_numpy(float)
-                 for k in terrain_probabilities.columns}
+        # (read as float first, a mask of the terrain seen passed slip_feature_matrix's
+        # boolean check as probabilities 0 and 1, and text failed in pandas naming nothing)
+        columns = {str(k): terrain_probabilities[k] for k in terrain_probabilities.columns}
+        probs = dict(zip(columns, real_arrays("slip_features", ConfigError, **{
+            f"probability of {k}": v for k, v in columns.items()})))
     names, values = slip_feature_matrix(ws.X, ws.channels, ws.rate_hz, vehicle, probs,
                                         current_rate_hz)
     return pd.DataFrame(values, columns=list(names))

@@ -368,3 +368,24 @@ def test_live_windows_are_the_batch_windows_whatever_the_clock_origin(
     got = np.array([d.proba for d in decisions[:n]])
     np.testing.assert_allclose(got, expected[:, order], atol=1e-4)
     assert all(d.flags == "" for d in decisions[:n])
+
+
+@pytest.mark.parametrize("column, error", [
+    ([True, False, True], "ConfigError"),
+    (pd.array([True, False, True], dtype="boolean"), "ConfigError"),
+    (["0.5", "x", "1"], "DataFormatError")])
+def test_slip_features_refuse_a_probability_column_of_booleans_or_text_naming_it(column,
+                                                                                 error):
+    # the batch path converted each column to float before slip_feature_matrix's boolean
+    # check: a mask of the terrain seen was read as probabilities 0 and 1 (the one-window
+    # path refuses it), and text a bare "could not convert string to float: 'x'"
+    import terrain.errors as errors
+    from features.slip_features import slip_features
+
+    rng = np.random.default_rng(2)
+    X = np.stack([_window(rng) for _ in range(3)])
+    ids = np.full(3, "r", dtype=object)
+    ws = WindowSet(X, SLIP_CHANNELS, ids, ids, ids, np.arange(3.0), np.arange(3.0) + 2, 50.0)
+    probs = pd.DataFrame({"ASPHALT": column, "ICE": [0.5, 0.5, 0.5]})
+    with pytest.raises(getattr(errors, error), match="slip_features: probability of ASPHALT"):
+        slip_features(ws, HUSKY, probs)
