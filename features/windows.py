@@ -21,7 +21,8 @@ import pandas as pd
 
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
-from terrain.errors import (ConfigError, MissingColumnError, ShapeError, TimestampError,
+from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, ShapeError,
+                            TimestampError,
                             config_flags, config_numbers, config_positive, duplicated,
                             first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
@@ -610,6 +611,49 @@ def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
     return tuple(need)
 
 
+def check_uniform_clock(t_s: np.ndarray, rate_hz: float, where: str | None = None,
+                        rows: np.ndarray | None = None) -> None:
+    """Refuse times that are not on a uniform clock at ``rate_hz``: windows are cut by row.
+
+    The samples' median step must be within 1 % of the model's period (the rate is compared,
+    as the message gives it: a step check refused 49.502 Hz, 0.996 % slow, and took 50.503
+    Hz), and no step may be longer than 1.5 periods (a missing row would put both sides of a
+    time hole in one window: :func:`terrain.io.align.align_streams` keeps the clock uniform
+    and marks a gap by rows of NaN).
+
+    Parameters
+    ----------
+    t_s : ndarray, shape (n,)
+        Sample times, s, finite and strictly increasing.
+    rate_hz : float
+        The model's (the window configuration's) sample rate, Hz.
+    where : str, optional
+        What holds the times, for the message (e.g. ``"model input, run 3"``).
+    rows : ndarray, shape (n,), optional
+        Row of each sample as the user gave it (a request's row), named by the error;
+        default the position in ``t_s``.
+
+    Raises
+    ------
+    DataFormatError
+        The median step's rate is more than 1 % off ``rate_hz``, naming the column.
+    TimestampError
+        A step is longer than 1.5 periods, naming the column and the first row after it.
+    """
+    dt = np.diff(np.asarray(t_s, dtype=float))
+    if dt.size and abs(1.0 / (np.median(dt) * rate_hz) - 1.0) > 0.01:
+        raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
+                              f"{rate_hz} Hz (align with align_streams)", where, TIME)
+    hole = dt * rate_hz > 1.5
+    if hole.any():
+        row = int(np.flatnonzero(hole)[0]) + 1
+        raise TimestampError(f"a step of {dt[row - 1]:.6g} s, {hole.sum()} step(s) longer "
+                             f"than 1.5 sample periods; aligned samples are on a uniform "
+                             f"{rate_hz:g} Hz clock, a gap being rows of NaN "
+                             f"(align with align_streams)", where, TIME,
+                             row if rows is None else int(rows[row]))
+
+
 def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowConfig
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, dict]:
     """Cut one aligned frame into windows.
@@ -651,8 +695,12 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         The frame has no ``t_s`` column or lacks one of ``channels`` (pandas' bare KeyError
         named the whole selection), naming the first missing one.
     TimestampError
-        The frame's ``t_s`` is not finite and strictly increasing, naming the column and
+        The frame's ``t_s`` is not finite and strictly increasing, or steps by more than 1.5
+        periods of ``config.rate_hz`` (:func:`check_uniform_clock`), naming the column and
         the first offending row.
+    DataFormatError
+        The frame's median step is not ``config.rate_hz``'s period within 1 %
+        (:func:`check_uniform_clock`).
     """
     absent = [c for c in (TIME, *channels) if c not in frame.columns]
     if absent:
@@ -672,6 +720,7 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         row = int(out_of_order[0])
         raise TimestampError(f"window_frame: the aligned frame's times must increase "
                              f"strictly, got {float(t[row])!r} at row {row}", None, TIME, row)
+    check_uniform_clock(t, config.rate_hz)     # windows are cut by row
     total = len(t)
     # a hop past the frame cuts its first window only, as one of the frame's length does
     # (a count past 64 bits, 1e17 s at 100 Hz, made the starts floats: NumPy's IndexError)

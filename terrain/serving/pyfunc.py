@@ -41,7 +41,8 @@ import numpy as np
 import pandas as pd
 
 from features.windows import (HUSKY_TRACK_M, WindowConfig, add_derived_channels,
-                              derived_track_m, required_streams, window_frame)
+                              check_uniform_clock, derived_track_m, required_streams,
+                              window_frame)
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, NonFiniteError,
                             TimestampError, duplicated)
 from terrain.io.align import align_streams
@@ -331,22 +332,7 @@ def predict_windows(pipeline: Any, samples: pd.DataFrame, channels: Sequence[str
             row = int(np.flatnonzero(dt <= 0)[0]) + 1
             raise TimestampError("timestamps must increase strictly within a run",
                                  f"model input, run {run_id}", TIME, int(at[row]))
-        # the rate against the model's, as the message and the docstring give it (the step
-        # against the period refused 49.502 Hz, 0.996 % slow, and took 50.503 Hz)
-        if dt.size and abs(1.0 / (np.median(dt) * config.rate_hz) - 1.0) > 0.01:
-            raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
-                                  f"{config.rate_hz} Hz (align with align_streams)",
-                                  f"model input, run {run_id}", TIME)
-        # windows are cut by row: a missing row would put both sides of a time hole in one
-        # window (align_streams keeps the clock uniform and marks a gap by NaN values)
-        hole = dt * config.rate_hz > 1.5
-        if hole.any():
-            row = int(np.flatnonzero(hole)[0]) + 1
-            raise TimestampError(f"a step of {dt[row - 1]:.6g} s, {hole.sum()} step(s) longer "
-                                 f"than 1.5 sample periods; aligned samples are on a uniform "
-                                 f"{config.rate_hz:g} Hz clock, a gap being rows of NaN "
-                                 f"(align with align_streams)",
-                                 f"model input, run {run_id}", TIME, int(at[row]))
+        check_uniform_clock(t, config.rate_hz, f"model input, run {run_id}", at)
         if {"ax", "ay", "az"} <= set(frame.columns):
             # the readers' rule accel_units on the run's live samples (NaN rows are gaps):
             # an accelerometer in g was classified as if gravity were 1 m/s^2 (its likely

@@ -195,12 +195,8 @@ def test_slip_targets_of_a_run_on_an_epoch_clock_are_those_from_zero(fraction, s
     assert list(a["terrain"]) == list(b["terrain"])
 
 
-@pytest.mark.xfail(strict=True, reason="window_frame cuts by row and takes the frame to be on "
-                   "config.rate_hz's uniform clock without checking: a 100 Hz frame cut with "
-                   "a 50 Hz config gives 1 s of samples under 2 s bounds, a missing row puts "
-                   "both sides of a time hole in one window. terrain/serving/pyfunc.py checks "
-                   "both before its call; the fix is to move that check into one shared rule "
-                   "that window_frame runs (outside features/, not copied here)")
+# window_frame cuts by row: a frame off config.rate_hz's uniform clock (a 100 Hz frame cut
+# with a 50 Hz config, a missing row) is refused by the shared rule check_uniform_clock
 @pytest.mark.parametrize("kind", ["rate", "hole"])
 def test_window_frame_refuses_a_frame_off_the_configs_uniform_clock(kind):
     from terrain.errors import DataFormatError
