@@ -354,10 +354,12 @@ def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> N
 
 
 def _type_family(kind: type) -> object:
-    """The family of a label's type that sorts together: numbers (Python's and NumPy's
-    integers, floats and booleans), text (``str``, ``numpy.str_``), bytes, or the type
+    """The family of a label's type: booleans (Python's and NumPy's), numbers (Python's and
+    NumPy's integers and floats), text (``str``, ``numpy.str_``), bytes, or the type
     itself."""
-    if issubclass(kind, (numbers.Real, np.bool_)):
+    if issubclass(kind, (bool, np.bool_)):
+        return bool
+    if issubclass(kind, numbers.Real):
         return numbers.Real
     for family in (str, bytes):
         if issubclass(kind, family):
@@ -367,15 +369,16 @@ def _type_family(kind: type) -> object:
 
 def refuse_mixed_types(owner: str, name: str, values) -> None:
     """Raise :class:`MixedTypesError` where ``values`` mix types that do not sort together
-    (text beside numbers, bytes beside text, e.g. ``np.array([1, "r2"], dtype=object)``):
-    the shared refusal of labels and runs before the models sort them (NumPy's ``unique``
-    and ``sorted`` failed with the bare "'<' not supported between instances of 'str' and
-    'int'", naming no argument).
+    (text beside numbers, bytes beside text, e.g. ``np.array([1, "r2"], dtype=object)``) or
+    booleans beside numbers: the shared refusal of labels and runs before the models sort
+    them (NumPy's ``unique`` and ``sorted`` failed with the bare "'<' not supported between
+    instances of 'str' and 'int'", naming no argument; ``True`` equals ``1``, so a mask
+    beside numbers merged two labels without a word).
 
-    Python's and NumPy's numbers (integers, floats, booleans) are one family and pass, as
-    does anything NumPy reads as one dtype (a list of ``1`` and ``"r2"`` reads as text);
-    only an object array is judged. Missing entries are :func:`refuse_missing`'s, judged
-    first.
+    Python's and NumPy's numbers (integers, floats) are one family and pass, as are
+    booleans alone, and anything NumPy reads as one dtype (a list of ``1`` and ``"r2"``
+    reads as text); only an object array is judged. Missing entries are
+    :func:`refuse_missing`'s, judged first.
 
     Parameters
     ----------
@@ -390,7 +393,9 @@ def refuse_mixed_types(owner: str, name: str, values) -> None:
     ------
     MixedTypesError
         "<owner>: <name> mixes values of type <first> and <second> (the first <second> at
-        index <i>): NumPy cannot sort them; give every one the same type (e.g. all text)".
+        index <i>): NumPy cannot sort them; give every one the same type (e.g. all text)"
+        (booleans beside numbers: "True equals 1 and False 0, so two labels would be
+        one").
     """
     flat = np.asarray(values)
     if flat.dtype != object:
@@ -402,9 +407,12 @@ def refuse_mixed_types(owner: str, name: str, values) -> None:
     family = _type_family(type(flat[0]))
     index = next(i for i, v in enumerate(flat) if _type_family(type(v)) is not family)
     first, second = type(flat[0]).__name__, type(flat[index]).__name__
+    why = ("True equals 1 and False 0, so two labels would be one"
+           if {family, _type_family(type(flat[index]))} == {bool, numbers.Real}
+           else "NumPy cannot sort them")
     raise MixedTypesError(f"{owner}: {name} mixes values of type {first} and {second} (the "
-                          f"first {second} at index {index}): NumPy cannot sort them; give "
-                          "every one the same type (e.g. all text)")
+                          f"first {second} at index {index}): {why}; give every one the "
+                          "same type (e.g. all text)")
 
 
 class ConfigError(TerrainError, ValueError):

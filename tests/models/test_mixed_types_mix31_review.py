@@ -60,7 +60,8 @@ def test_rule_names_owner_argument_types_and_first_index():
 
 
 @pytest.mark.parametrize("values", [
-    np.array([1, np.int64(2), 3.0, np.float32(4.5), True], dtype=object),  # numbers
+    np.array([1, np.int64(2), 3.0, np.float32(4.5)], dtype=object),  # numbers
+    np.array([True, np.bool_(False)], dtype=object),                 # booleans
     np.array(["a", np.str_("b")], dtype=object),                           # text
     np.array([b"a", np.bytes_(b"b")], dtype=object),                       # bytes
     [1, "r2"],                           # NumPy reads it as text: as it read before
@@ -76,6 +77,8 @@ def test_rule_accepts_one_type_family(values):
     (np.array(["a", b"a"], dtype=object), "str", "bytes"),
     (np.array([np.int64(1), "a"], dtype=object), "int64", "str"),
     (pd.Series([1, "a"]), "int", "str"),
+    (np.array([True, 1, 0, False], dtype=object), "bool", "int"),
+    (np.array([2.0, np.bool_(True)], dtype=object), "float", "bool"),
 ])
 def test_rule_refuses_two_families(values, first, second):
     _refused(lambda: refuse_mixed_types("f", "y", values), "y", first, second)
@@ -260,3 +263,12 @@ def test_valid_terrains_fit_as_before():
     want = calibration_folds(X, np.zeros((N, 4)), RUN_NAMES["int"], 3)
     assert [(a.tolist(), b.tolist()) for a, b in folds] == [(a.tolist(), b.tolist())
                                                             for a, b in want]
+
+
+def test_booleans_beside_numbers_are_refused_as_one_label_in_disguise():
+    # True == 1: the run shares of [True, 1, 0, False] were computed for two runs, not four
+    # values of two kinds, without a word
+    from terrain.models.weighting import run_shares
+    with pytest.raises(MixedTypesError, match=r"True equals 1 and False 0, so two labels "
+                                              r"would be one"):
+        run_shares(np.array([True, 1, 0, False], dtype=object), np.array(["a", "b", "c", "d"]))
