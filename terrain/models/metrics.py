@@ -29,6 +29,15 @@ def _check_windows(owner: str, **columns) -> None:
         refuse_mixed_types(owner, name, values)   # (NumPy's bare "'<' not supported")
 
 
+def _label_array(values) -> np.ndarray:
+    """Labels as an array of their own type: an object array (pandas' object column of
+    integers) holds one type family once :func:`_check_windows` passed it, and is read as
+    that type's array (scikit-learn's metrics refused an object array of integers as targets
+    of type 'unknown', a bare ValueError)."""
+    a = np.asarray(values)
+    return np.asarray(a.tolist()) if a.dtype == object else a
+
+
 def _check_classes(owner: str, classes: Sequence[str]) -> list:
     """``classes`` as a list; ConfigError where one is repeated (it would be scored twice)."""
     classes = list(classes)
@@ -79,7 +88,7 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     """
     _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("window_metrics", classes)
-    y_true, y_pred = np.asarray(y_true), np.asarray(y_pred)
+    y_true, y_pred = _label_array(y_true), _label_array(y_pred)
     # a label outside classes counts too, after them: a predicted class the list lacks
     # was left out of macro-F1 (a held-out truth's classes, the model knowing one more)
     known = set(classes)
@@ -207,7 +216,7 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
     classes = _check_classes("confusion", classes)
     if not classes:
         raise ConfigError("confusion: classes is empty: the matrix would have no row")
-    cm = confusion_matrix(y_true, y_pred, labels=classes)
+    cm = confusion_matrix(_label_array(y_true), _label_array(y_pred), labels=classes)
     return pd.DataFrame(cm, index=pd.Index(classes, name="true"),
                         columns=pd.Index(classes, name="predicted"))
 

@@ -272,3 +272,18 @@ def test_booleans_beside_numbers_are_refused_as_one_label_in_disguise():
     with pytest.raises(MixedTypesError, match=r"True equals 1 and False 0, so two labels "
                                               r"would be one"):
         run_shares(np.array([True, 1, 0, False], dtype=object), np.array(["a", "b", "c", "d"]))
+
+
+def test_integer_labels_in_an_object_array_are_scored_as_integers():
+    # pandas' object column of integers: scikit-learn's metrics refused it as targets of
+    # type 'unknown' (a bare ValueError); the same labels as integers or text score the same
+    from terrain.models.metrics import confusion, window_metrics
+    y = [1, 2, 1, 2, 3, 3]
+    p = [1, 2, 2, 2, 3, 1]
+    as_object = window_metrics(np.array(y, dtype=object), np.array(p, dtype=object), [1, 2, 3])
+    assert as_object == window_metrics(np.array(y), np.array(p), [1, 2, 3])
+    text = window_metrics(np.array(y).astype(str), np.array(p).astype(str), ["1", "2", "3"])
+    assert [as_object[k] for k in ("accuracy", "balanced_accuracy", "macro_f1")] == \
+        [text[k] for k in ("accuracy", "balanced_accuracy", "macro_f1")]
+    cm = confusion(pd.Series(y, dtype=object), pd.Series(p, dtype=object), [1, 2, 3])
+    assert cm.to_numpy().tolist() == [[1, 1, 0], [0, 2, 0], [1, 0, 1]]
