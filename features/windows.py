@@ -690,6 +690,7 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     Raises
     ------
     ConfigError
+        ``channels`` empty or one string (each of its letters was read as a channel), or
         ``config.steady_only`` and the frame has no ``vel_l`` or ``vel_r`` column.
     MissingColumnError
         The frame has no ``t_s`` column or lacks one of ``channels`` (pandas' bare KeyError
@@ -702,6 +703,10 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         The frame's median step is not ``config.rate_hz``'s period within 1 %
         (:func:`check_uniform_clock`).
     """
+    if isinstance(channels, str) or not len(channels):
+        # no channel: every window was returned empty and counted as a gap too
+        raise ConfigError(f"window_frame: channels must be a sequence of one or more channel "
+                          f"names, got {channels!r}")
     absent = [c for c in (TIME, *channels) if c not in frame.columns]
     if absent:
         raise MissingColumnError(f"window_frame: the aligned frame has no column(s) "

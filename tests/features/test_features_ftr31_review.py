@@ -385,3 +385,13 @@ def test_slip_features_refuse_a_probability_column_of_booleans_or_text_naming_it
     probs = pd.DataFrame({"ASPHALT": column, "ICE": [0.5, 0.5, 0.5]})
     with pytest.raises(getattr(errors, error), match="slip_features: probability of ASPHALT"):
         slip_features(ws, HUSKY, probs)
+
+
+@pytest.mark.parametrize("channels", [(), [], "a"])
+def test_window_frame_refuses_no_channel_or_a_bare_string(channels):
+    # no channel: every window came back empty and was counted as a gap as well; a string
+    # was read letter by letter as channel names
+    from terrain.errors import ConfigError
+
+    with pytest.raises(ConfigError, match="sequence of one or more channel names"):
+        window_frame(_frame(400, 100.0), channels, WindowConfig(window_s=1.0, rate_hz=100.0))
