@@ -231,6 +231,28 @@ def _text_read_back(cell) -> bool:
     return False
 
 
+def _unwritable_cell(cells: pd.Series):
+    """The row of the first cell of a column that is neither a real number, text nor
+    missing (a date, a duration, a complex number, bytes, a period, a Python boolean among
+    objects), or None: the file would hold its text (``2020-01-01 00:00:00``, ``(1+2j)``, ``b'a'``,
+    ``True``), which the readers give back as a text channel of other values."""
+    if cells.dtype.kind in "cmM":
+        return 0
+    if cells.dtype.kind != "O" or isinstance(cells.dtype, pd.StringDtype):
+        return None
+    return next((k for k, c in enumerate(cells) if not _written_as_is(c)), None)
+
+
+def _written_as_is(cell) -> bool:
+    """Whether a cell of an object column is text, a real number (not a boolean) or
+    missing (:func:`_missing_numbers` and the text rule judge those)."""
+    if isinstance(cell, str) or cell is None or cell is pd.NA or cell is pd.NaT:
+        return True
+    # (np.timedelta64 is a NumPy integer, which counts as a real number)
+    return isinstance(cell, numbers.Real) and not isinstance(cell, (bool, np.bool_,
+                                                                    np.timedelta64))
+
+
 def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
     """ConfigError for a text channel that the readers would refuse or change (a line
     break, a number or an empty cell among text, spaces around a label), or a boolean
@@ -244,7 +266,16 @@ def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
                     f"stream {name!r} of run {run.run_id}: column {column!r} holds booleans, "
                     f"which {kind}_XX.csv would read back as the text 'True'/'False'; write "
                     "them as numbers (0/1)")
-            if cells.dtype.kind in "iufcmM" or not any(isinstance(c, str) for c in cells):
+            row = _unwritable_cell(cells)
+            if row is not None:
+                other = cells.iloc[row]
+                raise ConfigError(
+                    f"stream {name!r} of run {run.run_id}: column {column!r} holds "
+                    f"{other!r} ({type(other).__name__}) at row {row}, which {kind}_XX.csv "
+                    "would hold as its text and read back as a text channel; write numbers "
+                    "(times and durations in seconds, a complex value as two real columns) "
+                    "or text labels")
+            if cells.dtype.kind in "iuf" or not any(isinstance(c, str) for c in cells):
                 continue
             bad = next((k for k, c in enumerate(cells) if not _text_read_back(c)), None)
             if bad is not None:
@@ -416,7 +447,10 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``' x'`` came back as ``'x'``, ``'a"b'`` as ``'"a""b"'``), a column of the ``imu``
         or ``wheels`` stream other than its file's canonical ones (never read back), or a
         text column the readers would refuse or change (a cell with a line break or spaces
-        around it, a number, an empty or non-finite cell among text), or timestamps the
+        around it, a number, an empty or non-finite cell among text), a column of values
+        that are neither real numbers nor text (dates, durations, complex numbers, bytes,
+        Python booleans among objects: written as their text, read back as a text channel
+        of other values), or timestamps the
         readers refuse (not finite, or not increasing strictly: a duplicated or decreasing
         one), or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
         column and ``None`` among numbers included: the readers interpolate an isolated one

@@ -1,0 +1,72 @@
+"""Review io32 of the measured-run writer and readers (:mod:`terrain.io.writer`,
+:mod:`terrain.io.measured`): a run the writer takes reads back with its streams, values and
+metadata; what it cannot write as it is, it refuses before writing anything."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pandas as pd
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from terrain.errors import ConfigError
+from terrain.io.measured import read_runs_dir
+from terrain.io.writer import write_run
+from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
+
+_SETTINGS = dict(max_examples=15, deadline=None,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture])
+
+
+def _run(t0_s: float = 0.0, n_wheels: int = 40, extra=None, meta=None,
+         terrain: str = "ASPHALT") -> Run:
+    """A small Husky run (100 Hz IMU, 6.5 Hz wheels) whose clocks start at ``t0_s``."""
+    rng = np.random.default_rng(0)
+    n_imu = int(n_wheels / 6.5 * 100)
+    imu = pd.DataFrame({TIME: t0_s + np.arange(n_imu) / 100.0,
+                        **{c: rng.normal(0.0, 0.1, n_imu) for c in IMU_CHANNELS}})
+    imu["az"] += 9.81
+    wheels = pd.DataFrame({TIME: t0_s + np.arange(n_wheels) / 6.5,
+                           **{c: rng.uniform(0.0, 0.5, n_wheels) for c in WHEEL_CHANNELS}})
+    streams = {"imu": imu, "wheels": wheels, **(extra or {})}
+    return Run(run_id="x/A/00", dataset="x", terrain=terrain, streams=streams,
+               meta=meta or {})
+
+
+def _read_back(root):
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        runs = read_runs_dir(root)
+    assert len(runs) == 1
+    return runs[0]
+
+
+def _no_file(root) -> bool:
+    return not any(p.is_file() for p in root.rglob("*"))
+
+
+_NOT_TEXT_NOR_NUMBER = {
+    # (each was written as its text, "2020-01-01 00:00:00", "0 days 00:00:01", "(1+2j)",
+    # "b'a'", and read back as a text channel: other values, another type, without a word)
+    "datetime": lambda n: pd.date_range("2020-01-01", periods=n, freq="s"),
+    "timedelta": lambda n: pd.to_timedelta(np.arange(n), "s"),
+    "complex": lambda n: np.arange(n) + 2j,
+    "bytes": lambda n: [b"GRASS"] * n,
+    "complex_objects": lambda n: pd.Series([complex(k, 1) for k in range(n)], dtype=object),
+}
+
+
+@settings(**_SETTINGS)
+@given(kind=st.sampled_from(sorted(_NOT_TEXT_NOR_NUMBER)),
+       stream=st.sampled_from(["truth", "extra2"]), n=st.integers(2, 12))
+def test_a_column_neither_numbers_nor_text_is_refused_before_writing(tmp_path_factory, kind,
+                                                                     stream, n):
+    root = tmp_path_factory.mktemp("out")
+    frame = pd.DataFrame({TIME: np.arange(n) / 10.0,
+                          "value": _NOT_TEXT_NOR_NUMBER[kind](n)})
+    with pytest.raises(ConfigError, match=rf"stream '{stream}'.*column 'value'"):
+        write_run(_run(extra={stream: frame}), root, 0)
+    assert _no_file(root)
