@@ -439,7 +439,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), a stream without ``t_s`` or an ``imu`` or ``wheels``
         stream without one of its canonical channels (a file the readers refuse), a
-        terrain that is not a folder name (``A/B``, ``..``) or
+        terrain that is not a folder name (``A/B``, ``..``, a NUL character) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
         ``SNOW``), a stream of fewer than :data:`~terrain.io.measured.MIN_DATA_ROWS` (2)
         rows (a file the readers refuse), a column name the readers would not give back
@@ -462,8 +462,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``pro_XX.csv`` (by which the readers find a run) last.
     """
     terrain = str(run.terrain or "UNLABELLED")
-    if terrain in (".", "..") or any(sep in terrain for sep in "/\\"):
-        # 'A/B' wrote a folder the readers never look in (they take <root>/<TERRAIN>/)
+    if terrain in (".", "..") or any(sep in terrain for sep in "/\\\0"):
+        # 'A/B' wrote a folder the readers never look in (they take <root>/<TERRAIN>/); a
+        # NUL character made Path.mkdir a bare "ValueError: embedded null byte"
         raise ConfigError(f"terrain {terrain!r} is not a folder name: the run would be "
                           f"written where the readers never look")
     if terrain != terrain.upper():

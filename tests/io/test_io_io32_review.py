@@ -70,3 +70,11 @@ def test_a_column_neither_numbers_nor_text_is_refused_before_writing(tmp_path_fa
     with pytest.raises(ConfigError, match=rf"stream '{stream}'.*column 'value'"):
         write_run(_run(extra={stream: frame}), root, 0)
     assert _no_file(root)
+
+
+@pytest.mark.parametrize("terrain", ["A\x00B", "\x00"])
+def test_a_terrain_with_a_nul_character_is_refused_not_a_bare_value_error(tmp_path, terrain):
+    # mkdir / exists raised Python's bare "ValueError: embedded null byte"
+    with pytest.raises(ConfigError, match="not a folder name"):
+        write_run(_run(terrain=terrain), tmp_path, 0)
+    assert _no_file(tmp_path)
