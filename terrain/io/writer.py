@@ -248,7 +248,12 @@ def _written_as_is(cell) -> bool:
     missing (:func:`_missing_numbers` and the text rule judge those)."""
     if isinstance(cell, str) or cell is None or cell is pd.NA or cell is pd.NaT:
         return True
-    # (np.timedelta64 is a NumPy integer, which counts as a real number)
+    return _real_number(cell)
+
+
+def _real_number(cell) -> bool:
+    """Whether a cell is a real number: not a boolean, nor a ``np.timedelta64`` (a NumPy
+    integer, which counts as a real number)."""
     return isinstance(cell, numbers.Real) and not isinstance(cell, (bool, np.bool_,
                                                                     np.timedelta64))
 
@@ -323,6 +328,13 @@ def _refuse_unreadable_time(run: Run) -> None:
     for name, frame in run.streams.items():
         if TIME not in frame:
             continue
+        row = _first_non_number(frame[TIME])
+        if row is not None:     # (text: float()'s bare ValueError; a date: its text)
+            cell = frame[TIME].iloc[row]
+            raise ConfigError(
+                f"stream {name!r} of run {run.run_id}: timestamp {cell!r} "
+                f"({type(cell).__name__}) at row {row} is not a number: t_s holds seconds, "
+                f"which the readers read from the time column of {file_kind(name)}_XX.csv")
         bad = _missing_numbers(frame[TIME])
         if bad.size:
             raise ConfigError(
@@ -339,6 +351,17 @@ def _refuse_unreadable_time(run: Run) -> None:
                 f"{t[row - 1]!r} at row {row} ({back.size} such row(s)); the readers take "
                 f"timestamps that increase strictly and would refuse "
                 f"{file_kind(name)}_XX.csv: sort the stream or drop the repeats")
+
+
+def _first_non_number(cells: pd.Series) -> int | None:
+    """Row of the first cell of a column that is not a real number nor missing (text, a
+    date, a duration, a boolean), or None."""
+    if cells.dtype.kind in "iuf":
+        return None
+    if cells.dtype.kind != "O" or isinstance(cells.dtype, pd.StringDtype):
+        return 0
+    return next((k for k, c in enumerate(cells) if not (
+        _real_number(c) or c is None or c is pd.NA or c is pd.NaT)), None)
 
 
 def _refuse_missing_columns(run: Run, frames: dict[str, pd.DataFrame]) -> None:
@@ -367,8 +390,8 @@ def _missing_numbers(cells: pd.Series) -> np.ndarray:
         return np.flatnonzero(~np.isfinite(values))
     if cells.dtype.kind != "O" or any(isinstance(c, str) for c in cells):
         return np.zeros(0, dtype=int)
-    infinite = [isinstance(c, numbers.Real) and not isinstance(c, bool) and math.isinf(c)
-                for c in cells]
+    # (math.isinf of a np.timedelta64, a NumPy integer, was a bare TypeError)
+    infinite = [_real_number(c) and math.isinf(c) for c in cells]
     return np.flatnonzero(cells.isna().to_numpy() | np.array(infinite, dtype=bool))
 
 
@@ -450,9 +473,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         around it, a number, an empty or non-finite cell among text), a column of values
         that are neither real numbers nor text (dates, durations, complex numbers, bytes,
         Python booleans among objects: written as their text, read back as a text channel
-        of other values), or timestamps the
-        readers refuse (not finite, or not increasing strictly: a duplicated or decreasing
-        one), or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
+        of other values), or timestamps the readers refuse (not numbers: text, dates,
+        durations; not finite, or not increasing strictly: a duplicated or decreasing one),
+        or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
         column and ``None`` among numbers included: the readers interpolate an isolated one
         and refuse one at the file's edge or in a burst); nothing is written then.
     OSError

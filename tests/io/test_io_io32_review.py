@@ -56,6 +56,10 @@ _NOT_TEXT_NOR_NUMBER = {
     "complex": lambda n: np.arange(n) + 2j,
     "bytes": lambda n: [b"GRASS"] * n,
     "complex_objects": lambda n: pd.Series([complex(k, 1) for k in range(n)], dtype=object),
+    "boolean_objects": lambda n: pd.Series([k % 2 == 0 for k in range(n)], dtype=object),
+    "numpy_durations": lambda n: pd.Series([np.timedelta64(k, "s") for k in range(n)],
+                                           dtype=object),
+    "periods": lambda n: pd.period_range("2020-01", periods=n, freq="M"),
 }
 
 
@@ -78,3 +82,34 @@ def test_a_terrain_with_a_nul_character_is_refused_not_a_bare_value_error(tmp_pa
     with pytest.raises(ConfigError, match="not a folder name"):
         write_run(_run(terrain=terrain), tmp_path, 0)
     assert _no_file(tmp_path)
+
+
+_CLOCKS = {
+    # (text: float()'s bare "could not convert string to float: 'a'"; a np.timedelta64 among
+    # objects: math.isinf's bare TypeError; a date or a duration: written as its text)
+    "text": lambda n: [f"t{k}" for k in range(n)],
+    "pandas_text": lambda n: pd.array([f"t{k}" for k in range(n)], dtype="string"),
+    "dates": lambda n: pd.date_range("2020-01-01", periods=n, freq="s"),
+    "durations": lambda n: pd.to_timedelta(np.arange(n), "s"),
+    "numpy_durations": lambda n: pd.Series([np.timedelta64(k, "s") for k in range(n)],
+                                           dtype=object),
+    "complex": lambda n: np.arange(n) + 0j,
+}
+
+
+@settings(**_SETTINGS)
+@given(kind=st.sampled_from(sorted(_CLOCKS)), stream=st.sampled_from(["wheels", "truth"]))
+def test_a_clock_that_is_not_numbers_is_refused_naming_stream_and_row(tmp_path_factory, kind,
+                                                                      stream):
+    root = tmp_path_factory.mktemp("out")
+    run = _run(extra={"truth": pd.DataFrame({TIME: np.arange(5) / 10.0, "x": np.ones(5)})})
+    frame = run.streams[stream].copy()
+    frame[TIME] = _CLOCKS[kind](len(frame))
+    streams = {**run.streams, stream: frame}
+    run = Run(run.run_id, run.dataset, run.terrain, streams)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")     # (NumPy's ComplexWarning, were it cast)
+        with pytest.raises(ConfigError, match=rf"stream '{stream}'.*timestamp .* at row 0 "
+                                              "is not a number"):
+            write_run(run, root, 0)
+    assert _no_file(root)
