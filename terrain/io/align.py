@@ -50,7 +50,7 @@ import pandas as pd
 from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_integer,
-                            config_numbers, config_positive, duplicated)
+                            config_numbers, config_positive, duplicated, holds_booleans)
 from terrain.run import TIME, Run, clock_slack, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -557,12 +557,15 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
         (NaN or inf made no step a gap, 1 or less nearly every one), ``streams`` one text
         instead of a tuple of names, or two streams share a channel name.
     DataFormatError
-        If none of ``streams`` is in the run, one of them has fewer than 2 samples, their
+        If none of ``streams`` is in the run, one of them lacks ``t_s``
+        (:class:`~terrain.errors.MissingColumnError`) or holds a column twice, one of
+        them has fewer than 2 samples, their
         time spans do not overlap, or their overlap would make more than
         :data:`MAX_GRID_POINTS` grid points (naming the stream's longest step and its row).
     TimestampError
-        A stream's ``t_s`` not finite and strictly increasing (the :class:`Run` contract),
-        naming the stream and the first offending row.
+        A stream's ``t_s`` not numbers (booleans, text, dates), or not finite and strictly
+        increasing (the :class:`Run` contract), naming the stream and the first offending
+        row.
     """
     config_positive("align_streams", rate_hz=rate_hz)
     check_gap_factor("align_streams", gap_factor)
@@ -573,6 +576,21 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
     if not present:
         raise DataFormatError(f"run has none of the streams {list(streams)} "
                               f"(has {list(run.streams)})", run.source)
+    for name in present:
+        # (a bare KeyError 't_s'; a column twice a bare AttributeError or broadcast error)
+        frame = run.require_columns(name, ())
+        twice = duplicated(list(frame.columns))
+        if twice:
+            raise DataFormatError(f"stream {name!r} has column(s) {twice} twice: which one "
+                                  "to align is unknown; rename or drop one", run.source,
+                                  str(twice[0]))
+        clock = frame[TIME]
+        if holds_booleans(clock) or clock.dtype.kind in "SUmM" or any(
+                isinstance(c, (str, bytes)) for c in clock.head(1)):
+            # (booleans were the times 0 and 1 s, text the numbers it spells)
+            raise TimestampError(f"stream {name!r}: timestamps must be numbers (s), got "
+                                 f"{clock.dtype} values such as {clock.iloc[0]!r}",
+                                 run.source, TIME, 0)
     frames = [run.streams[s] for s in present]
     # numeric channels, integer ones included (a shipped Parquet column may hold int64:
     # leaving it out made every feature of it a KeyError); text channels (a simulated run's

@@ -12,7 +12,8 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from terrain.errors import ConfigError
+from terrain.errors import ConfigError, DataFormatError, MissingColumnError, TimestampError
+from terrain.io.align import align_streams
 from terrain.io.measured import read_runs_dir
 from terrain.io.writer import write_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -113,3 +114,49 @@ def test_a_clock_that_is_not_numbers_is_refused_naming_stream_and_row(tmp_path_f
                                               "is not a number"):
             write_run(run, root, 0)
     assert _no_file(root)
+
+
+def _aligned(imu: pd.DataFrame, rate_hz: float = 10.0) -> pd.DataFrame:
+    """``imu`` aligned beside a 20-sample wheel stream at 10 Hz."""
+    wheels = pd.DataFrame({TIME: np.arange(20) / 10.0, "vel_l": np.ones(20)})
+    return align_streams(Run("x/A/00", "x", None, {"imu": imu, "wheels": wheels}),
+                         rate_hz=rate_hz)
+
+
+@pytest.mark.parametrize("columns, twice", [
+    # (each was a bare error: "'DataFrame' object has no attribute 'dtype'", and for t_s
+    # "operands could not be broadcast together with shapes (20,1) (19,2)")
+    ([TIME, "ax", "ax"], "ax"), ([TIME, TIME, "ax"], TIME), ([TIME, "ax", "ay", "ax"], "ax")])
+def test_a_stream_with_a_column_twice_is_refused_naming_it(columns, twice):
+    imu = pd.DataFrame(np.tile(np.arange(20) / 10.0, (len(columns), 1)).T, columns=columns)
+    with pytest.raises(DataFormatError, match=rf"stream 'imu'.*{twice!r}"):
+        _aligned(imu)
+
+
+def test_a_stream_without_a_clock_is_refused_naming_it():
+    # (a bare KeyError 't_s')
+    with pytest.raises(MissingColumnError, match=r"stream 'imu' lacks columns \['t_s'\]"):
+        _aligned(pd.DataFrame({"ax": np.arange(20.0)}))
+
+
+@pytest.mark.parametrize("clock", [
+    # booleans were read as the times 0 and 1 s; text as the numbers it spells
+    pd.Series([False, True] * 10), pd.array([False, True] * 10, dtype="boolean"),
+    pd.Series([f"{k / 10}" for k in range(20)]),
+    pd.array([f"{k / 10}" for k in range(20)], dtype="string")])
+def test_a_clock_of_booleans_or_text_is_refused(clock):
+    with pytest.raises(TimestampError, match=r"stream 'imu'.*timestamps must be numbers"):
+        _aligned(pd.DataFrame({TIME: clock, "ax": np.arange(20.0)}))
+
+
+@settings(max_examples=20, deadline=None)
+@given(dtype=st.sampled_from(["float64", "float32", "int64", "object"]),
+       n=st.integers(2, 30), rate=st.sampled_from([1.0, 2.0, 4.0]))
+def test_a_numeric_clock_of_any_dtype_is_aligned_as_its_float_values(dtype, n, rate):
+    # (a stream no faster than the grid: not filtered, a line interpolated exactly)
+    t = np.arange(n, dtype=float)
+    imu = pd.DataFrame({TIME: pd.Series(t).astype(dtype), "ax": 2.0 * t})
+    wheels = pd.DataFrame({TIME: t, "vel_l": np.ones(n)})
+    frame = align_streams(Run("x/A/00", "x", None, {"imu": imu, "wheels": wheels}),
+                          rate_hz=rate)
+    np.testing.assert_allclose(frame["ax"], 2.0 * frame[TIME], rtol=1e-12)
