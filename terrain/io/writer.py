@@ -462,7 +462,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         ``wheels``) or two streams that go to one file
         (:func:`to_file_frames`), a stream without ``t_s`` or an ``imu`` or ``wheels``
         stream without one of its canonical channels (a file the readers refuse), a
-        terrain that is not a folder name (``A/B``, ``..``, a NUL character) or
+        terrain that is not a folder name (``A/B``, ``..``, a NUL character), not UTF-8
+        text (a lone surrogate such as ``'\\udcff'``) or
         not in upper case (the readers upper-case the folder name: ``snow`` is read back as
         ``SNOW``), a stream of fewer than :data:`~terrain.io.measured.MIN_DATA_ROWS` (2)
         rows (a file the readers refuse), a column name the readers would not give back
@@ -490,6 +491,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         # NUL character made Path.mkdir a bare "ValueError: embedded null byte"
         raise ConfigError(f"terrain {terrain!r} is not a folder name: the run would be "
                           f"written where the readers never look")
+    if not terrain.isascii() and any("\ud800" <= c <= "\udfff" for c in terrain):
+        # '\udcff' became the folder b'\xff', read back as the label '\\XFF'; '\ud800'
+        # was a bare UnicodeEncodeError
+        raise ConfigError(f"terrain {terrain!r} is not UTF-8 text (a lone surrogate, as "
+                          f"Python gives a folder name that is not UTF-8 on disk): the "
+                          f"readers would not read it back; give the label as text")
     if terrain != terrain.upper():
         # the readers take the label from the folder name, upper-cased: 'snow' came back SNOW
         raise ConfigError(f"terrain {terrain!r} would be read back as {terrain.upper()!r} "

@@ -160,3 +160,28 @@ def test_a_numeric_clock_of_any_dtype_is_aligned_as_its_float_values(dtype, n, r
     frame = align_streams(Run("x/A/00", "x", None, {"imu": imu, "wheels": wheels}),
                           rate_hz=rate)
     np.testing.assert_allclose(frame["ax"], 2.0 * frame[TIME], rtol=1e-12)
+
+
+@pytest.mark.parametrize("terrain", ["\udcff", "A\udcffB", "\ud800", "GRASS\udfff"])
+def test_a_terrain_with_a_lone_surrogate_is_refused_before_writing(tmp_path, terrain):
+    # '\udcff' was written as the folder b'\xff' and read back as the label '\\XFF' (the
+    # readers escape a byte that is not UTF-8, then upper-case the name); '\ud800' failed
+    # in a bare UnicodeEncodeError 'surrogates not allowed'
+    with pytest.raises(ConfigError, match="not UTF-8 text"):
+        write_run(_run(terrain=terrain), tmp_path, 0)
+    assert _no_file(tmp_path)
+
+
+@settings(**_SETTINGS)
+@given(terrain=st.text(min_size=1, max_size=8))
+def test_a_terrain_the_writer_takes_is_read_back_as_the_runs_label(tmp_path_factory,
+                                                                   terrain):
+    root = tmp_path_factory.mktemp("out")
+    try:
+        write_run(_run(n_wheels=6, terrain=terrain), root, 0)
+    except ConfigError:
+        assert _no_file(root)
+        return
+    back = _read_back(root)
+    assert back.terrain == terrain
+    assert back.run_id.split("/")[1:] == [terrain, "00"]
