@@ -742,6 +742,24 @@ def _mixed_layout(root: Path, top: dict, folders) -> DataFormatError:
                            "their terrain folder", root)
 
 
+def known_vehicle(vehicle) -> bool:
+    """Whether the ``vehicle`` of a run's metadata is one the readers take (the rule of
+    :func:`read_run` and of :func:`terrain.io.writer.write_run`).
+
+    Parameters
+    ----------
+    vehicle : object
+        The value of the ``vehicle`` key of ``meta_XX.json``.
+
+    Returns
+    -------
+    bool
+        True for text naming one of :data:`terrain.run.VEHICLE_NAMES` in any case
+        (``Husky``); False otherwise (``None``, a number, ``"husky "``).
+    """
+    return isinstance(vehicle, str) and vehicle.lower() in VEHICLE_NAMES
+
+
 def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | None,
              **reader_options) -> Run:
     """Read the files of one run into a :class:`Run`.
@@ -791,7 +809,7 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         if not isinstance(meta, dict):
             raise DataFormatError("run metadata must be a JSON object", files["meta"])
     vehicle = meta.get("vehicle", "husky")
-    if not isinstance(vehicle, str) or vehicle.lower() not in VEHICLE_NAMES:
+    if not known_vehicle(vehicle):
         # an unknown vehicle would also switch off the vehicle's plausibility rules
         raise DataFormatError(f"key 'vehicle': unknown vehicle {vehicle!r}; valid: "
                               f"{', '.join(VEHICLE_NAMES)} (leave the key out for the "

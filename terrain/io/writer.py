@@ -29,8 +29,8 @@ import pandas as pd
 from terrain.errors import ConfigError, config_integer, duplicated
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
-                                 parse_cells)
-from terrain.run import TIME, Run
+                                 known_vehicle, parse_cells)
+from terrain.run import TIME, VEHICLE_NAMES, Run
 
 #: Number format of the written CSV files (see the module's note on timestamps).
 FLOAT_FORMAT = "%.9g"
@@ -452,7 +452,9 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     Raises
     ------
     ConfigError
-        The run has no ``wheels`` stream (the readers refuse a run without
+        The run's vehicle is not one of :data:`terrain.run.VEHICLE_NAMES` (in any case;
+        the readers refuse its ``meta_XX.json``), the run has no ``wheels`` stream (the
+        readers refuse a run without
         ``pro_XX.csv``), index not an integer in [0, 99] (a boolean, a float or text
         included) or already
         used by a file of the folder (any
@@ -502,6 +504,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         raise ConfigError(f"terrain {terrain!r} would be read back as {terrain.upper()!r} "
                           f"(the readers upper-case the folder name); give the label in "
                           f"upper case")
+    if not known_vehicle(run.vehicle):
+        # its files were written, then refused by every reader ("unknown vehicle"), which
+        # stopped the reading of every run of the folder
+        raise ConfigError(f"run {run.run_id}: vehicle {run.vehicle!r} would be written to "
+                          f"meta_XX.json, which the readers refuse; valid: "
+                          f"{', '.join(VEHICLE_NAMES)}")
     frames = to_file_frames(run)
     # the readers take <kind>_XX.csv with that kind only, as the stream STREAM_NAMES gives
     # it (pro_XX.csv: 'wheels', so a stream named 'pro' came back as 'wheels'); meta_XX is

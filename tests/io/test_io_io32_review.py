@@ -185,3 +185,23 @@ def test_a_terrain_the_writer_takes_is_read_back_as_the_runs_label(tmp_path_fact
     back = _read_back(root)
     assert back.terrain == terrain
     assert back.run_id.split("/")[1:] == [terrain, "00"]
+
+
+@pytest.mark.parametrize("vehicle", ["car", "", None, 3, "husky ", "HUSKY\n"])
+def test_a_run_of_a_vehicle_the_readers_do_not_know_is_refused_before_writing(tmp_path,
+                                                                              vehicle):
+    # its files were written, then the readers refused meta_00.json ("key 'vehicle':
+    # unknown vehicle 'car'"), which stopped the reading of every run of the folder
+    run = _run(n_wheels=6)
+    run = Run(run.run_id, run.dataset, run.terrain, run.streams, vehicle=vehicle)
+    with pytest.raises(ConfigError, match=r"vehicle .*valid: agrimaro, husky, tracked"):
+        write_run(run, tmp_path, 0)
+    assert _no_file(tmp_path)
+
+
+@pytest.mark.parametrize("vehicle", ["agrimaro", "husky", "tracked", "Tracked"])
+def test_a_run_of_a_known_vehicle_is_read_back_as_that_vehicle(tmp_path, vehicle):
+    run = _run(n_wheels=6)
+    write_run(Run(run.run_id, run.dataset, run.terrain, run.streams, vehicle=vehicle),
+              tmp_path, 0)
+    assert _read_back(tmp_path).vehicle == vehicle.lower()
