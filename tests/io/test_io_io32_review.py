@@ -205,3 +205,50 @@ def test_a_run_of_a_known_vehicle_is_read_back_as_that_vehicle(tmp_path, vehicle
     write_run(Run(run.run_id, run.dataset, run.terrain, run.streams, vehicle=vehicle),
               tmp_path, 0)
     assert _read_back(tmp_path).vehicle == vehicle.lower()
+
+
+def _quantised_run(t0_s: float, imu_hz: float, wheel_hz: float, seconds: float, seed: int,
+                   terrain: str) -> Run:
+    """A run whose values are multiples of 1/64 (``%.9g`` writes them exactly) and whose
+    clocks ``t0_s + k / rate`` read back exactly (from 0 at a rate whose period is a short
+    decimal: each ``k / rate`` is the double nearest its text; at 1.7e9 s the writer writes
+    every float in full). (At 6.5 Hz ``%.9g`` moves a stamp by up to 5e-9 of it, as the
+    writer documents, and the aligned values by a few units in the last place.)"""
+    rng = np.random.default_rng(seed)
+    n_imu, n_wheels = int(seconds * imu_hz), int(seconds * wheel_hz)
+    imu = pd.DataFrame({TIME: t0_s + np.arange(n_imu) / imu_hz,
+                        **{c: rng.integers(-8, 8, n_imu) / 64 for c in IMU_CHANNELS}})
+    imu["az"] += 9.8125
+    wheels = pd.DataFrame({TIME: t0_s + np.arange(n_wheels) / wheel_hz,
+                           **{c: rng.integers(0, 32, n_wheels) / 64 for c in WHEEL_CHANNELS}})
+    labels = np.array(["ASPHALT", "GRASS", "ÉTÉ_☃"])[rng.integers(0, 3, n_wheels)]
+    truth = pd.DataFrame({TIME: wheels[TIME], "terrain": labels,
+                          "slip": rng.integers(-64, 64, n_wheels) / 64})
+    return Run(run_id="x/A/00", dataset="x", terrain=terrain,
+               streams={"imu": imu, "wheels": wheels, "truth": truth},
+               meta={"note": "piste d'été ☃", "seed": seed, "rates": [imu_hz, wheel_hz]})
+
+
+@settings(**_SETTINGS)
+@given(t0=st.sampled_from([0.0, 1.7e9]), imu_hz=st.sampled_from([50.0, 100.0, 200.0]),
+       wheel_hz=st.sampled_from([5.0, 8.0, 10.0, 12.5, 20.0]), seconds=st.integers(3, 6),
+       seed=st.integers(0, 2 ** 16), terrain=st.sampled_from(["ASPHALT", "ÉTÉ", "ПЕСОК"]),
+       rate_hz=st.sampled_from([10.0, 20.0, 50.0]))
+def test_a_written_run_reads_back_and_aligns_bit_for_bit(tmp_path_factory, t0, imu_hz,
+                                                         wheel_hz, seconds, seed, terrain,
+                                                         rate_hz):
+    run = _quantised_run(t0, imu_hz, wheel_hz, seconds, seed, terrain)
+    root = tmp_path_factory.mktemp("out")
+    write_run(run, root, 0)
+    back = _read_back(root)
+    assert (back.terrain, back.vehicle, back.run_id) == (terrain, "husky", f"{root.name}/"
+                                                                           f"{terrain}/00")
+    assert set(back.streams) == set(run.streams)
+    for name, frame in run.streams.items():
+        pd.testing.assert_frame_equal(back.streams[name][list(frame.columns)], frame,
+                                      check_dtype=False)
+    assert {k: back.meta[k] for k in run.meta} == run.meta
+    assert not back.meta["repaired"] and not back.meta["gaps"]
+    streams = ("imu", "wheels", "truth")
+    pd.testing.assert_frame_equal(align_streams(back, streams, rate_hz),
+                                  align_streams(run, streams, rate_hz), check_exact=True)
