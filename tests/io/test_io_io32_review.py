@@ -257,3 +257,45 @@ def test_a_written_run_reads_back_and_aligns_bit_for_bit(tmp_path_factory, t0, i
     assert aligned.attrs["dropped_columns"] == ("truth.terrain",)
     assert aligned.attrs["n_dropped_columns"] == 1
     assert list(aligned.columns) == [TIME, *IMU_CHANNELS, *WHEEL_CHANNELS, "slip"]
+
+
+@st.composite
+def _slow_streams(draw):
+    """Two streams no faster than the grid (not filtered), each at its own rate and clock
+    offset (from 0 or at the 1.7e9 s epoch), with random values and no gap."""
+    origin = draw(st.sampled_from([0.0, 1234.5, 1.7e9]))
+    streams = {}
+    for name, channel in (("imu", "ax"), ("wheels", "vel_l")):
+        rate = draw(st.sampled_from([3.0, 6.5, 10.0, 15.0]))
+        n = draw(st.integers(2, 40))
+        offset = draw(st.floats(0.0, 1.0))
+        values = draw(st.lists(st.floats(-1e3, 1e3), min_size=n, max_size=n))
+        streams[name] = pd.DataFrame({TIME: origin + offset + np.arange(n) / rate,
+                                      channel: values})
+    return streams
+
+
+@settings(max_examples=60, deadline=None)
+@given(streams=_slow_streams())
+def test_the_aligned_grid_never_extrapolates_past_a_streams_samples(streams):
+    run = Run("x/A/00", "x", None, streams)
+    t0 = max(f[TIME].iloc[0] for f in streams.values())
+    t1 = min(f[TIME].iloc[-1] for f in streams.values())
+    if t1 <= t0:
+        with pytest.raises(DataFormatError, match="do not overlap"):
+            align_streams(run, rate_hz=10.0)
+        return
+    frame = align_streams(run, rate_hz=10.0)
+    t = frame[TIME].to_numpy()
+    assert t[0] == t0 and t[-1] <= t1 + 1e-9 and t1 - t[-1] < 0.1 + 1e-9
+    for f in streams.values():
+        channel = f.columns[1]
+        ts, vs = f[TIME].to_numpy(), f[channel].to_numpy()
+        # each grid value lies between the two samples around it: a linear interpolation
+        j = np.clip(np.searchsorted(ts, t, side="right") - 1, 0, len(ts) - 2)
+        lo = np.minimum(vs[j], vs[j + 1])
+        hi = np.maximum(vs[j], vs[j + 1])
+        got = frame[channel].to_numpy()
+        assert np.isfinite(got).all()
+        slack = 1e-12 * np.maximum(1.0, np.abs(vs).max())
+        assert (got >= lo - slack).all() and (got <= hi + slack).all()
