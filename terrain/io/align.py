@@ -585,12 +585,14 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                                   "to align is unknown; rename or drop one", run.source,
                                   str(twice[0]))
         clock = frame[TIME]
-        if holds_booleans(clock) or clock.dtype.kind in "SUmM" or any(
-                isinstance(c, (str, bytes)) for c in clock.head(1)):
+        row = 0 if holds_booleans(clock) or clock.dtype.kind in "SUmM" else next(
+            (k for k, c in enumerate(clock) if isinstance(c, (str, bytes, bool, np.bool_))),
+            None) if clock.dtype.kind == "O" else None
+        if row is not None:
             # (booleans were the times 0 and 1 s, text the numbers it spells)
             raise TimestampError(f"stream {name!r}: timestamps must be numbers (s), got "
-                                 f"{clock.dtype} values such as {clock.iloc[0]!r}",
-                                 run.source, TIME, 0)
+                                 f"{clock.iloc[row]!r} ({clock.dtype}) at row {row}",
+                                 run.source, TIME, row)
     frames = [run.streams[s] for s in present]
     # numeric channels, integer ones included (a shipped Parquet column may hold int64:
     # leaving it out made every feature of it a KeyError); text channels (a simulated run's

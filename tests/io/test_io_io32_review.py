@@ -149,6 +149,17 @@ def test_a_clock_of_booleans_or_text_is_refused(clock):
         _aligned(pd.DataFrame({TIME: clock, "ax": np.arange(20.0)}))
 
 
+@pytest.mark.parametrize("cell", ["0.7", b"0.7", True])
+def test_a_clock_of_numbers_holding_one_text_or_boolean_stamp_is_refused_naming_its_row(
+        cell):
+    clock = pd.Series(list(np.arange(20) / 10), dtype=object)
+    clock[7] = cell
+    with pytest.raises(TimestampError, match=r"stream 'imu'.*numbers \(s\), got .* at "
+                                             r"row 7") as err:
+        _aligned(pd.DataFrame({TIME: clock, "ax": np.arange(20.0)}))
+    assert err.value.row == 7
+
+
 @settings(max_examples=20, deadline=None)
 @given(dtype=st.sampled_from(["float64", "float32", "int64", "object"]),
        n=st.integers(2, 30), rate=st.sampled_from([1.0, 2.0, 4.0]))
