@@ -984,7 +984,7 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     only : str, optional
         Read the runs of this terrain folder only: only that folder is indexed
         (:func:`folder_run_files`), so a badly named file in another folder of ``root``
-        does not stop it.
+        does not stop it (the name of a folder of ``root``, case included).
     **reader_options
         Passed to :func:`read_stream_csv`.
 
@@ -996,11 +996,13 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     Raises
     ------
     DataFormatError
-        As :func:`list_run_files` (with ``only``: the folder holds no run file, or a file
-        named like a run file that is not read), or a file that cannot be read
-        (:func:`read_run`).
+        As :func:`list_run_files` (with ``only``: ``root`` holds no such folder, the
+        folder holds no run file, or a file named like a run file that is not read), or a
+        file that cannot be read (:func:`read_run`).
     ConfigError
-        ``labelled`` or ``progress`` not True or False (the text ``"no"`` labelled the runs).
+        ``labelled`` or ``progress`` not True or False (the text ``"no"`` labelled the runs),
+        or ``only`` not a folder name (text without a path separator or NUL, not empty,
+        ``.`` or ``..``).
     """
     config_flags("read_runs_dir", labelled=labelled, progress=progress)
     root = Path(root)
@@ -1009,6 +1011,17 @@ def read_runs_dir(root: str | Path, dataset: str | None = None, *,
     if only is None:
         found = list_run_files(root)
     else:
+        if not isinstance(only, str) or only in ("", ".", "..") or "\0" in only or (
+                Path(only).name != only):
+            # ('ASPHALT/' read its run as '<root>/ASPHALT//00' labelled 'ASPHALT/', ''
+            # the root itself, '../x' a folder outside it)
+            raise ConfigError(f"read_runs_dir.only names one terrain folder of root (its "
+                              f"name, without a path separator), got {only!r}")
+        if not (root / only).is_dir():     # (a bare FileNotFoundError)
+            folders = sorted(folder_text(d.name) for d in root.iterdir()
+                             if d.is_dir()) if root.is_dir() else []
+            raise DataFormatError(f"no terrain folder {only!r} in the runs folder (its "
+                                  f"folders: {folders})", root)
         found = {(only, index): files
                  for index, files in folder_run_files(root / only).items()}
         if not found:

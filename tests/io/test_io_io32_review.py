@@ -5,6 +5,7 @@ metadata; what it cannot write as it is, it refuses before writing anything."""
 from __future__ import annotations
 
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -14,7 +15,7 @@ from hypothesis import strategies as st
 
 from terrain.errors import ConfigError, DataFormatError, MissingColumnError, TimestampError
 from terrain.io.align import align_streams
-from terrain.io.measured import read_runs_dir
+from terrain.io.measured import read_runs_dir, read_runs_path
 from terrain.io.writer import write_run
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
 
@@ -310,3 +311,44 @@ def test_the_aligned_grid_never_extrapolates_past_a_streams_samples(streams):
         assert np.isfinite(got).all()
         slack = 1e-12 * np.maximum(1.0, np.abs(vs).max())
         assert (got >= lo - slack).all() and (got <= hi + slack).all()
+
+
+@pytest.mark.parametrize("only", ["ASPHALT/", "/ASPHALT", "", ".", "..", "../ASPHALT",
+                                  "A\x00", 3, Path("ASPHALT")])
+def test_read_runs_dir_only_names_one_terrain_folder_of_the_root(tmp_path, only):
+    # 'ASPHALT/' read the run as '<root>/ASPHALT//00' labelled 'ASPHALT/'; '' looked for
+    # run files in the root itself, '../ASPHALT' outside it; 3 a bare TypeError
+    write_run(_run(n_wheels=6), tmp_path, 0)
+    with pytest.raises(ConfigError, match=r"read_runs_dir.only names one terrain folder"):
+        read_runs_dir(tmp_path, only=only)
+
+
+@pytest.mark.parametrize("only", ["NOPE", "asphalt"])
+def test_read_runs_dir_only_naming_no_folder_is_a_data_format_error_listing_them(
+        tmp_path, only):
+    # (a bare FileNotFoundError)
+    write_run(_run(n_wheels=6), tmp_path, 0)
+    with pytest.raises(DataFormatError, match=rf"no terrain folder {only!r}.*'ASPHALT'"):
+        read_runs_dir(tmp_path, only=only)
+
+
+def test_read_runs_dir_only_and_read_runs_path_read_one_terrain_folder_alike(tmp_path):
+    write_run(_run(n_wheels=6), tmp_path, 0)
+    write_run(_run(n_wheels=6, terrain="ÉTÉ"), tmp_path, 0)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        (one,) = read_runs_dir(tmp_path, only="ÉTÉ")
+        (other,) = read_runs_path(tmp_path / "ÉTÉ")
+    assert one.run_id == other.run_id == f"{tmp_path.name}/ÉTÉ/00"
+    assert one.terrain == other.terrain == "ÉTÉ"
+
+
+def test_read_runs_path_reads_a_terrain_folder_whose_name_holds_a_backslash(tmp_path):
+    # (a file name character on POSIX: read_runs_path passes it as read_runs_dir's only)
+    folder = tmp_path / "A\\B"
+    write_run(_run(n_wheels=6), tmp_path, 0)
+    (tmp_path / "ASPHALT").rename(folder)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        (run,) = read_runs_path(folder)
+    assert run.terrain == "A\\B"
