@@ -656,7 +656,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
         Returns an unfitted estimator.
     X : pandas.DataFrame, shape (n, n_features)
         Window features.
-    Y : array-like, shape (n, k)
+    Y : array-like, shape (n, k) or (n,)
         Targets (a nested list too).
     groups : ndarray, shape (n,)
         Group of each window.
@@ -665,7 +665,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
 
     Returns
     -------
-    ndarray, shape (n, k)
+    ndarray, shape of ``Y``
         NaN outside the ``test`` windows (and for groups without training data elsewhere).
 
     Raises
@@ -700,6 +700,8 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     for g in np.unique(groups[test]):
         m = groups == g
         if (train & ~m).any():
-            out = np.where((test & m)[:, None],
-                           fit_predict(make_model, X, Y, train & ~m, test & m), out)
+            # the rows of g's test windows, whatever Y's dimension ((n,): a mask of shape
+            # (n, 1) broadcast the predictions into an (n, n) table, without a word)
+            rows = test & m
+            out[rows] = fit_predict(make_model, X, Y, train & ~m, rows)[rows]
     return out
