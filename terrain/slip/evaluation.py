@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
-                            ShapeError, config_positive, refuse_missing, refuse_mixed_types)
+                            ShapeError, config_positive, first_items, refuse_missing,
+                            refuse_mixed_types)
 from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -264,12 +265,21 @@ def std_calibration_table(pred: np.ndarray, std: np.ndarray, truth: np.ndarray,
         not ``(n, >= 2)`` with ``n`` the windows of ``meta``.
     MissingColumnError
         ``meta`` lacks a column of ``by`` (named).
+    EstimationError
+        A negative ``std`` (its windows counted and the first named): ``|error| / std`` was
+        negative, so the window was counted as covered whatever its error.
     """
     mask = _window_mask("std_calibration_table", "mask", mask, len(meta))
     by = _group_columns("std_calibration_table", meta, by)
     err = np.abs(_window_sides("std_calibration_table", "pred", pred, len(meta))
                  - _window_sides("std_calibration_table", "truth", truth, len(meta)))
     std = _window_sides("std_calibration_table", "std", std, len(meta))
+    negative = np.flatnonzero((std < 0).any(axis=1))
+    if negative.size:   # |error| / std < 0 <= 1: a negative std covered every error
+        raise EstimationError(
+            f"std_calibration_table: std must be >= 0 (or NaN where the model gives none), "
+            f"got {std[negative[0]][std[negative[0]] < 0][0]:g} in {negative.size} of "
+            f"{len(std)} windows ({first_items(negative.tolist(), word='window')})")
     with np.errstate(divide="ignore", invalid="ignore"):    # std 0: inf (uncovered) or NaN
         u = err / std
     pos = np.flatnonzero(mask)

@@ -5,11 +5,13 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LinearRegression
 
-from terrain.slip.evaluation import fit_predict, leave_one_out
+from terrain.errors import EstimationError
+from terrain.slip.evaluation import fit_predict, leave_one_out, std_calibration_table
 
 FAST = settings(max_examples=30, deadline=None)
 
@@ -35,3 +37,41 @@ def test_leave_one_out_of_one_target_per_window_is_one_prediction_per_window(
         m = groups == g
         np.testing.assert_allclose(flat[test & m], fit_predict(
             LinearRegression, X, y, train & ~m, test & m)[test & m])
+
+
+def _meta(n_runs: int, per_run: int) -> pd.DataFrame:
+    rid = np.repeat([f"r{i}" for i in range(n_runs)], per_run)
+    return pd.DataFrame({"run_id": rid, "terrain": "A", "scenario": "s",
+                         "t_start_s": 0.0, "t_end_s": 2.0})
+
+
+@FAST
+@given(sign_at=st.integers(0, 5), side=st.integers(0, 1), value=st.floats(-10, -1e-9))
+def test_std_calibration_table_refuses_a_negative_std_by_name(sign_at, side, value):
+    """|error| / std of a negative std is negative, <= 1: the window was counted as covered
+    whatever its error (coverage 1 of a model that is wrong everywhere)."""
+    meta = _meta(2, 3)
+    std = np.full((6, 2), 0.1)
+    std[sign_at, side] = value
+    with pytest.raises(EstimationError, match=r"std_calibration_table: std must be >= 0.*"
+                       rf"1 of 6 windows \(window {sign_at}\)"):
+        std_calibration_table(np.zeros((6, 2)), std, np.ones((6, 2)), meta, np.ones(6, bool))
+
+
+@FAST
+@given(k=st.floats(0.01, 100), seed=st.integers(0, 999))
+def test_std_calibration_coverage_is_invariant_to_scaling_errors_and_std_together(k, seed):
+    """Coverage and normalised errors are dimensionless: scaling errors and std by k moves
+    neither; the median std and error scale by k; NaN stds are counted out (n_scored)."""
+    rng = np.random.default_rng(seed)
+    meta = _meta(3, 4)
+    pred, truth = rng.normal(size=(12, 2)), rng.normal(size=(12, 2))
+    std = rng.uniform(0.1, 2.0, size=(12, 2))
+    std[rng.integers(12), rng.integers(2)] = np.nan
+    mask = rng.random(12) < 0.8
+    mask[0] = True
+    a = std_calibration_table(pred, std, truth, meta, mask)
+    b = std_calibration_table(k * pred, k * std, k * truth, meta, mask)
+    for c in ("n_windows", "n_scored", "coverage_1std", "coverage_2std"):
+        np.testing.assert_allclose(a[c], b[c])
+    assert a["n_scored"].sum() == 2 * mask.sum() - np.isnan(std[mask]).sum()
