@@ -67,13 +67,15 @@ def _window_mask(owner: str, name: str, mask, n: int) -> np.ndarray:
     return m
 
 
-def _group_columns(owner: str, meta: pd.DataFrame, by: Sequence[str]) -> list[str]:
-    """The grouping columns ``by`` of ``meta``, refused (MissingColumnError naming ``owner``
-    and the column) when ``meta`` lacks one: a bare pandas KeyError before."""
+def _group_columns(owner: str, meta: pd.DataFrame, by: Sequence[str], name: str = "meta",
+                   what: str = "grouping") -> list[str]:
+    """The ``what`` columns ``by`` of the table ``meta`` (called ``name``), refused
+    (MissingColumnError naming ``owner``, ``name`` and the column) when it lacks one: a bare
+    pandas KeyError before."""
     by = list(by)
     missing = [c for c in by if c not in meta.columns]
     if missing:
-        raise MissingColumnError(f"{owner}: meta has no grouping column(s) {missing} (its "
+        raise MissingColumnError(f"{owner}: {name} has no {what} column(s) {missing} (its "
                                  f"columns: {list(meta.columns)})", column=str(missing[0]))
     return by
 
@@ -103,7 +105,13 @@ def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarra
     Returns
     -------
     ndarray of bool, shape (n,)
+
+    Raises
+    ------
+    MissingColumnError
+        ``meta`` lacks ``scenario`` or ``t_start_s`` (named).
     """
+    _group_columns("steady_straight", meta, ("scenario", "t_start_s"), what="provenance")
     return ((meta["scenario"].to_numpy() == "straight_accel")
             & (meta["t_start_s"].to_numpy() >= STEADY_AFTER_S)
             & (np.abs(np.asarray(yaw_rate_rad_s, dtype=float)) < 0.05))
@@ -532,10 +540,16 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     ShapeError
         ``train`` is not a boolean array of one value per window (an integer 0/1 mask
         fancy-indexed the windows: eq. 22 fitted on windows 0 and 1 only, silently).
+    MissingColumnError
+        ``X`` lacks a feature column above or ``meta`` its ``terrain`` (named).
     """
     from terrain.slip.baselines import endo_turning_slip, fit_pitch_slip, pitch_slip
 
     train = _window_mask("baseline_predictions", "train", train, len(X))
+    _group_columns("baseline_predictions", X, ("pitch", "vel_l__mean", "vel_r__mean",
+                                               "wz__mean", "phys_slip_l", "phys_slip_r"),
+                   name="X", what="feature")
+    _group_columns("baseline_predictions", meta, ("terrain",), what="provenance")
 
     terr = meta["terrain"].to_numpy()
     pitch = X["pitch"].to_numpy()
@@ -600,6 +614,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     MixedTypesError
         Values of types that do not sort together (text beside numbers) in ``run_ids`` or
         ``terrains`` (:func:`terrain.errors.refuse_mixed_types`).
+    MissingColumnError
+        ``X`` lacks a feature column above (named; a bare pandas KeyError before).
 
     Warns
     -----
@@ -613,6 +629,9 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     config_positive("measured_checks", allow_zero=True, min_turn_rad_s=min_turn_rad_s)
     # (the wheel yaw rate divides by it: 0 gave an infinite RMS, < 0 swapped the sides)
     config_positive("measured_checks", track_m=track_m)
+    _group_columns("measured_checks", X, ("wz__mean", "vel_diff__mean", "cur_l__mean",
+                                          "cur_r__mean", "phys_slip_l", "phys_slip_r"),
+                   name="X", what="feature")
     n = len(X)
     pred = np.asarray(pred, dtype=float)
     if pred.ndim != 2 or pred.shape[0] != n or pred.shape[1] < 3:

@@ -10,8 +10,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LinearRegression
 
-from terrain.errors import EstimationError
-from terrain.slip.evaluation import fit_predict, leave_one_out, std_calibration_table
+from terrain.errors import EstimationError, MissingColumnError
+from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
+                                     measured_checks, std_calibration_table, steady_straight)
 
 FAST = settings(max_examples=30, deadline=None)
 
@@ -75,3 +76,43 @@ def test_std_calibration_coverage_is_invariant_to_scaling_errors_and_std_togethe
     for c in ("n_windows", "n_scored", "coverage_1std", "coverage_2std"):
         np.testing.assert_allclose(a[c], b[c])
     assert a["n_scored"].sum() == 2 * mask.sum() - np.isnan(std[mask]).sum()
+
+
+_MEASURED = ("wz__mean", "vel_diff__mean", "cur_l__mean", "cur_r__mean", "phys_slip_l",
+             "phys_slip_r")
+_BASELINE = ("pitch", "vel_l__mean", "vel_r__mean", "wz__mean", "phys_slip_l", "phys_slip_r")
+
+
+def _features(columns, n: int = 6) -> pd.DataFrame:
+    rng = np.random.default_rng(1)
+    return pd.DataFrame({c: rng.normal(size=n) for c in columns})
+
+
+@pytest.mark.parametrize("column", _MEASURED)
+def test_measured_checks_name_a_missing_feature_column(column):
+    """A feature table without one of the columns read was a bare pandas KeyError."""
+    X = _features(_MEASURED).drop(columns=column)
+    with pytest.raises(MissingColumnError, match=rf"measured_checks: X has no feature "
+                       rf"column\(s\) \['{column}'\]") as e:
+        measured_checks(X, np.ones((6, 4)), np.array(list("aabbcc")), np.array(["x"] * 6), 0.5)
+    assert e.value.column == column
+
+
+@pytest.mark.parametrize("column", _BASELINE)
+def test_baseline_predictions_name_a_missing_feature_column(column):
+    X = _features(_BASELINE).drop(columns=column)
+    meta = _meta(2, 3)
+    with pytest.raises(MissingColumnError, match=rf"baseline_predictions: X has no feature "
+                       rf"column\(s\) \['{column}'\]"):
+        baseline_predictions(X, np.zeros((6, 4)), meta, np.ones(6, bool), [], 0.5)
+    with pytest.raises(MissingColumnError, match=r"meta has no provenance column\(s\) "
+                       r"\['terrain'\]"):
+        baseline_predictions(_features(_BASELINE), np.zeros((6, 4)),
+                             meta.drop(columns="terrain"), np.ones(6, bool), [], 0.5)
+
+
+@pytest.mark.parametrize("column", ["scenario", "t_start_s"])
+def test_steady_straight_names_a_missing_provenance_column(column):
+    with pytest.raises(MissingColumnError, match=rf"steady_straight: meta has no provenance "
+                       rf"column\(s\) \['{column}'\]"):
+        steady_straight(_meta(2, 3).drop(columns=column), np.zeros(6))
