@@ -13,6 +13,7 @@ from sklearn.linear_model import LinearRegression
 from terrain.errors import EstimationError, MissingColumnError
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
                                      measured_checks, std_calibration_table, steady_straight)
+from terrain.slip.odometry import dead_reckon
 
 FAST = settings(max_examples=30, deadline=None)
 
@@ -116,3 +117,90 @@ def test_steady_straight_names_a_missing_provenance_column(column):
     with pytest.raises(MissingColumnError, match=rf"steady_straight: meta has no provenance "
                        rf"column\(s\) \['{column}'\]"):
         steady_straight(_meta(2, 3).drop(columns=column), np.zeros(6))
+
+
+def _drive(seed: int, n: int):
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 0.2, size=n))
+    vl, vr = rng.uniform(-2, 2, size=(2, n))
+    return rng, t, vl, vr
+
+
+def _path(pose: np.ndarray) -> float:
+    return float(np.sum(np.hypot(*np.diff(pose[:, :2], axis=0).T)))
+
+
+@FAST
+@given(seed=st.integers(0, 9999), n=st.integers(1, 30), track=st.floats(0.2, 2.0))
+def test_dead_reckon_with_zero_slip_is_plain_wheel_odometry(seed, n, track):
+    """Slips of 0 (arrays or floats), chi 1 and no lateral velocity are plain odometry,
+    bit for bit; the pose starts at 0."""
+    _, t, vl, vr = _drive(seed, n)
+    plain = dead_reckon(t, vl, vr, track)
+    np.testing.assert_array_equal(plain[0], 0.0)
+    np.testing.assert_array_equal(
+        dead_reckon(t, vl, vr, track, np.zeros(n), np.zeros(n), np.ones(n), np.zeros(n)),
+        plain)
+    np.testing.assert_array_equal(dead_reckon(t, vl, vr, track, 0.0, 0.0, 1.0, 0.0), plain)
+
+
+@FAST
+@given(seed=st.integers(0, 9999), n=st.integers(1, 30), track=st.floats(0.2, 2.0),
+       gyro=st.booleans())
+def test_dead_reckon_mirrored_left_right_mirrors_the_pose(seed, n, track, gyro):
+    """Swapping the sides (speeds and slips), the lateral velocity's and the gyro's sign
+    mirrors the path about the start heading: x kept, y and yaw negated."""
+    rng, t, vl, vr = _drive(seed, n)
+    sl, sr = rng.uniform(-0.9, 0.9, size=(2, n))
+    chi, vy, wz = rng.uniform(1, 3, size=n), rng.normal(0, 0.1, size=n), rng.normal(size=n)
+    kw = {"yaw_rate_rad_s": wz} if gyro else {"chi": chi}
+    kw_m = {"yaw_rate_rad_s": -wz} if gyro else {"chi": chi}
+    pose = dead_reckon(t, vl, vr, track, sl, sr, lateral_m_s=vy, **kw)
+    mirror = dead_reckon(t, vr, vl, track, sr, sl, lateral_m_s=-vy, **kw_m)
+    np.testing.assert_allclose(mirror, pose * [1, -1, -1], atol=1e-9)
+
+
+@FAST
+@given(seed=st.integers(0, 9999), n=st.integers(2, 30), track=st.floats(0.2, 2.0))
+def test_compensated_odometry_in_traction_never_claims_more_than_the_wheels_turned(
+        seed, n, track):
+    """A traction slip in [0, 1] (the rim turns faster than the ground passes) takes ground
+    speed off each side: the compensated path is at most the mean distance the two sides'
+    rims rolled, and driving forwards with equal slips on both sides at most the plain
+    path."""
+    rng, t, vl, vr = _drive(seed, n)
+    sl, sr = rng.uniform(0, 1, size=(2, n))
+    pose = dead_reckon(t, vl, vr, track, sl * np.sign(vl), sr * np.sign(vr))
+    dt = np.diff(t)
+    rolled = 0.5 * np.sum(dt * 0.5 * (np.abs(vl[:-1]) + np.abs(vl[1:])
+                                      + np.abs(vr[:-1]) + np.abs(vr[1:])))
+    assert _path(pose) <= rolled * (1 + 1e-9) + 1e-12
+    # driving forwards (no reversal, whose trapezoid mixes the directions) on a straight
+    forwards = (np.abs(vl), np.abs(vr))
+    same = dead_reckon(t, *forwards, track, sl, sl, yaw_rate_rad_s=0 * t)
+    plain = dead_reckon(t, *forwards, track, yaw_rate_rad_s=0 * t)
+    assert _path(same) <= _path(plain) * (1 + 1e-9) + 1e-12
+
+
+@FAST
+@given(n=st.integers(1, 20), track=st.floats(0.2, 2.0), seed=st.integers(0, 999))
+def test_dead_reckon_at_standstill_claims_no_motion_whatever_the_slip(n, track, seed):
+    """Wheels that do not turn give no distance and no heading, whatever slip is claimed."""
+    rng = np.random.default_rng(seed)
+    t = np.cumsum(rng.uniform(0.01, 0.2, size=n))
+    z = np.zeros(n)
+    sl, sr = rng.uniform(-0.9, 1.0, size=(2, n))
+    np.testing.assert_array_equal(dead_reckon(t, z, z, track, sl, sr, rng.uniform(1, 3, n)),
+                                  np.zeros((n, 3)))
+
+
+@FAST
+@given(c=st.floats(0.01, 1.0), w=st.floats(0.1, 1.0), n=st.integers(2, 20))
+def test_lateral_velocity_is_to_the_left_of_the_heading(c, w, n):
+    """Sliding sideways at v_y > 0 (to the left, body y) while turning left at w: the world
+    velocity is R(yaw) (0, v_y), so x decreases and y increases (yaw in (0, pi/2])."""
+    t = np.linspace(0, 0.5 * np.pi / w, n)
+    z = np.zeros(n)
+    pose = dead_reckon(t, z, z, 1.0, lateral_m_s=c, yaw_rate_rad_s=np.full(n, w))
+    assert pose[-1, 0] < 0 < pose[-1, 1]
+    np.testing.assert_allclose(pose[:, 2], w * t)
