@@ -13,6 +13,7 @@ from sklearn.linear_model import LinearRegression
 from terrain.errors import EstimationError, MissingColumnError
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
                                      measured_checks, std_calibration_table, steady_straight)
+from terrain.slip.learned import SlipRegressor
 from terrain.slip.odometry import dead_reckon
 
 FAST = settings(max_examples=30, deadline=None)
@@ -204,3 +205,31 @@ def test_lateral_velocity_is_to_the_left_of_the_heading(c, w, n):
     pose = dead_reckon(t, z, z, 1.0, lateral_m_s=c, yaw_rate_rad_s=np.full(n, w))
     assert pose[-1, 0] < 0 < pose[-1, 1]
     np.testing.assert_allclose(pose[:, 2], w * t)
+
+
+@pytest.mark.filterwarnings("ignore::terrain.errors.DataWarning")
+@pytest.mark.parametrize("k", [4.0, 0.125])
+def test_calibrated_std_scales_with_the_slip_targets(k):
+    """Slip targets (and the std floor, the one slip-valued setting) scaled by k (a power
+    of 2: exact in floating point) scale the predicted slip and its calibrated std, both
+    moments, by k; the coverage of the calibration is unchanged."""
+    rng = np.random.default_rng(3)
+    n = 150
+    X = rng.normal(size=(n, 3))
+    y = np.column_stack([0.1 * X[:, 0] + 0.02 * rng.normal(size=n),
+                         0.05 * X[:, 1] + 0.02 * rng.normal(size=n),
+                         np.full(n, np.nan), 0.01 * rng.normal(size=n)])
+    groups = np.repeat([f"run{i}" for i in range(5)], n // 5)
+
+    def fitted(scale):
+        return SlipRegressor(max_iter=5, min_samples_leaf=5, std_floor=0.0005 * scale).fit(
+            X, y * [scale, scale, 1, 1], groups)
+
+    a, b = fitted(1.0), fitted(k)
+    assert np.isfinite(a.predict_std(X)).all() and a.calibration_["n_windows"] == n
+    np.testing.assert_allclose(b.predict(X)[:, :2], k * a.predict(X)[:, :2], rtol=1e-9,
+                               atol=1e-15)
+    for moment in ("median", "variance"):
+        np.testing.assert_allclose(b.predict_std(X, moment), k * a.predict_std(X, moment),
+                                   rtol=1e-9)
+    assert b.calibration_["coverage_1std"] == a.calibration_["coverage_1std"]
