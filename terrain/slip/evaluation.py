@@ -19,8 +19,8 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
-                            ShapeError, config_positive, first_items, refuse_missing,
-                            refuse_mixed_types)
+                            ShapeError, config_positive, duplicated, first_items, listed,
+                            refuse_missing, refuse_mixed_types)
 from terrain.run import TIME, Run, runs_by_id
 from terrain.slip.baselines import observer_slip, slip_ratio_as_sae
 from terrain.slip.odometry import dead_reckon
@@ -406,8 +406,9 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
     ShapeError
         ``pred`` is not ``(n, >= 4)`` with ``n`` the windows of ``meta``.
     ConfigError
-        A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta``, or two
-        of ``runs`` sharing an id (named).
+        A run of ``run_ids`` that is not among ``runs`` or has no window in ``meta``, a run
+        given twice in ``run_ids`` (its row was repeated, weighing it twice in any mean of
+        the table), or two of ``runs`` sharing an id (named).
     EstimationError
         A run without a ``wheels`` or ``truth`` stream (its id is named).
     NonFiniteError
@@ -428,6 +429,10 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         # predictions of other windows)
         raise ShapeError(f"odometry_errors: pred must have shape ({len(meta)}, >= 4) (slip_1, "
                          f"slip_2, chi, v_by of each window of meta), got {pred.shape}")
+    twice = duplicated(list(run_ids))
+    if twice:   # (the run's row was repeated)
+        raise ConfigError(f"odometry_errors: run(s) {listed(twice)} given more than once in "
+                          f"run_ids (one row per run)")
     rows = []
     n_clipped = n_samples = n_runs_clipped = 0
     for rid in run_ids:

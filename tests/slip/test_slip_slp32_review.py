@@ -10,9 +10,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LinearRegression
 
-from terrain.errors import EstimationError, MissingColumnError
+from terrain.errors import ConfigError, EstimationError, MissingColumnError
+from terrain.run import Run
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
-                                     measured_checks, std_calibration_table, steady_straight)
+                                     measured_checks, odometry_errors, std_calibration_table,
+                                     steady_straight)
 from terrain.slip.learned import SlipRegressor
 from terrain.slip.odometry import dead_reckon
 
@@ -233,3 +235,53 @@ def test_calibrated_std_scales_with_the_slip_targets(k):
         np.testing.assert_allclose(b.predict_std(X, moment), k * a.predict_std(X, moment),
                                    rtol=1e-9)
     assert b.calibration_["coverage_1std"] == a.calibration_["coverage_1std"]
+
+
+def _odometry_case(names=("sim/SNOW/turn/0", "sim/SAND/turn/1"), seed: int = 0):
+    """Runs whose truth is compensated odometry of known slips, their windows and the
+    window predictions (slip_1, slip_2, chi, v_by)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, 8.0, 0.1)
+    starts = np.arange(0.0, 6.0, 2.0)
+    runs, metas, preds = [], [], []
+    for name in names:
+        vl, vr = np.full_like(t, rng.uniform(0.3, 1)), np.full_like(t, rng.uniform(0.3, 1))
+        sl, sr = rng.uniform(0, 0.4, size=(2, 3))
+        truth = dead_reckon(t, vl, vr, 0.55, np.interp(t, starts + 1, sl),
+                            np.interp(t, starts + 1, sr))
+        runs.append(Run(name, "sim", name.split("/")[1],
+                        {"wheels": pd.DataFrame({"t_s": t, "vel_l": vl, "vel_r": vr}),
+                         "truth": pd.DataFrame({"t_s": t, "x": truth[:, 0],
+                                                "y": truth[:, 1]})}))
+        metas.append(pd.DataFrame({"run_id": name, "t_start_s": starts,
+                                   "t_end_s": starts + 2.0}))
+        preds.append(np.column_stack([sl, sr, np.ones(3), np.zeros(3)]))
+    return runs, pd.concat(metas, ignore_index=True), np.vstack(preds)
+
+
+def test_odometry_errors_refuse_a_run_given_twice():
+    """A run twice in run_ids gave its row twice (weighing it double in a mean of the
+    table) without a word."""
+    runs, meta, pred = _odometry_case()
+    ids = [runs[0].run_id, runs[1].run_id, runs[0].run_id]
+    with pytest.raises(ConfigError, match=r"odometry_errors: run\(s\) \['sim/SNOW/turn/0'\] "
+                       "given more than once in run_ids"):
+        odometry_errors(runs, meta, pred, 0.55, ids)
+
+
+@FAST
+@given(seed=st.integers(0, 99), reverse=st.booleans())
+def test_odometry_errors_do_not_depend_on_run_names_or_their_order(seed, reverse):
+    """Renaming the runs (ids swapped between them) or giving them in another order moves
+    every figure with its run and changes none."""
+    runs, meta, pred = _odometry_case(seed=seed)
+    a = odometry_errors(runs, meta, pred, 0.55, [r.run_id for r in runs])
+    swap = ("sim/SNOW/turn/9", "sim/SAND/turn/8")      # same terrains, other ids
+    runs2, meta2, pred2 = _odometry_case(swap, seed=seed)
+    order = [1, 0] if reverse else [0, 1]
+    b = odometry_errors([runs2[i] for i in order], meta2, pred2, 0.55,
+                        [runs2[i].run_id for i in order])
+    b = b.set_index(b["run_id"].map(dict(zip(swap, a["run_id"])))).loc[list(a["run_id"])]
+    pd.testing.assert_frame_equal(a.drop(columns="run_id").reset_index(drop=True),
+                                  b.drop(columns="run_id").reset_index(drop=True))
+    assert (a["compensated_err_pct"] < 1e-6).all()
