@@ -341,7 +341,11 @@ def observer_window_slip(runs: Sequence[Run], meta: pd.DataFrame, track_m: float
     NonFiniteError
         A non-finite time, ``wz``, ``vel_l`` or ``vel_r`` sample (run, column and row named):
         the heading integrates the gyro, so one would make every later window NaN.
+    MissingColumnError
+        ``meta`` lacks ``run_id``, ``t_start_s`` or ``t_end_s`` (named).
     """
+    _group_columns("observer_window_slip", meta, ("run_id", "t_start_s", "t_end_s"),
+                   what="provenance")
     out = np.full((len(meta), 2), np.nan)
     by_id = runs_by_id(runs, "observer_window_slip")
     for rid, idx in meta.groupby("run_id").indices.items():
@@ -415,6 +419,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         A non-finite time, wheel speed, truth position or yaw, or (with an IMU) ``wz``
         sample (run, column and row named): dead reckoning integrates them, so one would make
         the run's errors NaN.
+    MissingColumnError
+        ``meta`` lacks ``run_id``, ``t_start_s`` or ``t_end_s`` (named).
 
     Warns
     -----
@@ -422,6 +428,8 @@ def odometry_errors(runs: Sequence[Run], meta: pd.DataFrame, pred: np.ndarray,
         Wheel samples whose interpolated chi lies outside :data:`CHI_RANGE` were clipped to
         it (their count, and of how many runs).
     """
+    _group_columns("odometry_errors", meta, ("run_id", "t_start_s", "t_end_s"),
+                   what="provenance")
     by_id = runs_by_id(runs, "odometry_errors")
     pred = np.asarray(pred, dtype=float)
     if pred.ndim != 2 or pred.shape[0] != len(meta) or pred.shape[1] < 4:

@@ -13,8 +13,8 @@ from sklearn.linear_model import LinearRegression
 from terrain.errors import ConfigError, EstimationError, MissingColumnError
 from terrain.run import Run
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
-                                     measured_checks, odometry_errors, std_calibration_table,
-                                     steady_straight)
+                                     measured_checks, observer_window_slip, odometry_errors,
+                                     std_calibration_table, steady_straight)
 from terrain.slip.learned import SlipRegressor
 from terrain.slip.odometry import dead_reckon
 
@@ -285,3 +285,17 @@ def test_odometry_errors_do_not_depend_on_run_names_or_their_order(seed, reverse
     pd.testing.assert_frame_equal(a.drop(columns="run_id").reset_index(drop=True),
                                   b.drop(columns="run_id").reset_index(drop=True))
     assert (a["compensated_err_pct"] < 1e-6).all()
+
+
+@pytest.mark.parametrize("column", ["run_id", "t_start_s", "t_end_s"])
+@pytest.mark.parametrize("which", ["odometry_errors", "observer_window_slip"])
+def test_window_provenance_without_a_column_is_named(column, which):
+    """A meta without run_id or a window bound was pandas' bare KeyError."""
+    runs, meta, pred = _odometry_case()
+    meta = meta.drop(columns=column)
+    call = ((lambda: odometry_errors(runs, meta, pred, 0.55, [runs[0].run_id]))
+            if which == "odometry_errors" else
+            (lambda: observer_window_slip(runs, meta, 0.55)))
+    with pytest.raises(MissingColumnError, match=rf"{which}: meta has no provenance "
+                       rf"column\(s\) \['{column}'\]"):
+        call()
