@@ -634,7 +634,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     -----
     DataWarning
         Turning windows whose predicted chi lies outside :data:`CHI_RANGE` had it clipped
-        (their count).
+        (their count); windows whose ``wz__mean`` is NaN, neither turning nor straight, were
+        left out of every figure (their count and the first few).
     """
     from scipy.stats import spearmanr
 
@@ -656,8 +657,14 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
             raise ShapeError(f"measured_checks: {name} must have shape ({n},) (one per "
                              f"window), got {value.shape}")
         refuse_mixed_types("measured_checks", name, value)   # (NumPy's bare TypeError)
-    wz = X["wz__mean"].to_numpy()
+    wz = X["wz__mean"].to_numpy(dtype=float)
     dv = X["vel_diff__mean"].to_numpy()
+    unknown = np.isnan(wz)
+    if unknown.any():   # neither turning nor straight: left out of every figure, said
+        warnings.warn(f"measured_checks: {int(unknown.sum())} of {n} windows have no gyro yaw "
+                      f"rate (wz__mean NaN) and are left out of the turning and the straight "
+                      f"windows ({first_items(np.flatnonzero(unknown).tolist(), word='window')})",
+                      DataWarning, stacklevel=2)
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on
     chi, n_out = _clip_chi(np.where(turning, pred[:, 2], 1.0))
     if n_out:

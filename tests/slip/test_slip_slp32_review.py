@@ -3,6 +3,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -10,7 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LinearRegression
 
-from terrain.errors import ConfigError, EstimationError, MissingColumnError
+from terrain.errors import ConfigError, DataWarning, EstimationError, MissingColumnError
 from terrain.run import Run
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
                                      measured_checks, observer_window_slip, odometry_errors,
@@ -299,3 +301,27 @@ def test_window_provenance_without_a_column_is_named(column, which):
     with pytest.raises(MissingColumnError, match=rf"{which}: meta has no provenance "
                        rf"column\(s\) \['{column}'\]"):
         call()
+
+
+@FAST
+@given(n=st.integers(4, 12), seed=st.integers(0, 999), data=st.data())
+def test_measured_checks_count_and_say_the_windows_without_a_yaw_rate(n, seed, data):
+    """A window whose gyro yaw rate is NaN is neither turning nor straight: it was left out
+    of every figure without a word; now said (count, first windows), the figures those of
+    the other windows alone."""
+    rng = np.random.default_rng(seed)
+    X = _features(_MEASURED, n)
+    X["wz__mean"] = rng.choice([0.0, 0.02, 0.3, -0.4], size=n)
+    gone = data.draw(st.lists(st.integers(0, n - 1), min_size=1, max_size=n - 1, unique=True))
+    X.loc[gone, "wz__mean"] = np.nan
+    pred = np.column_stack([rng.uniform(0, 0.3, (n, 2)), rng.uniform(1, 3, n), np.zeros(n)])
+    runs, terrains = np.array(["a", "b"] * (n // 2) + ["a"] * (n % 2)), np.array(["T"] * n)
+    with pytest.warns(DataWarning, match=rf"{len(gone)} of {n} windows have no gyro yaw rate "
+                      rf"\(wz__mean NaN\).*\(windows? {min(gone)}"):
+        table = measured_checks(X, pred, runs, terrains, 0.5)
+    keep = ~X["wz__mean"].isna().to_numpy()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", DataWarning)     # no such window: nothing said
+        alone = measured_checks(X[keep].reset_index(drop=True), pred[keep], runs[keep],
+                                terrains[keep], 0.5)
+    pd.testing.assert_frame_equal(table.drop(columns="n_runs"), alone.drop(columns="n_runs"))
