@@ -613,7 +613,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     -------
     pandas.DataFrame
         One row per terrain: ``terrain, n_runs, n_turning_windows, yaw_rms_plain_rad_s,
-        yaw_rms_compensated_rad_s, median_learned_minus_physics, spearman_slip_current``.
+        yaw_rms_compensated_rad_s, median_learned_minus_physics, spearman_slip_current``;
+        no row, with these columns, without a window.
 
     Raises
     ------
@@ -689,7 +690,11 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
                      "median_learned_minus_physics": float(np.median(np.abs(
                          slip[straight] - phys[straight]))) if straight.any() else np.nan,
                      "spearman_slip_current": rho})
-    return pd.DataFrame(rows)
+    # no window: the documented columns still (a frame without any was a KeyError later)
+    return pd.DataFrame(rows, columns=["terrain", "n_runs", "n_turning_windows",
+                                       "yaw_rms_plain_rad_s", "yaw_rms_compensated_rad_s",
+                                       "median_learned_minus_physics",
+                                       "spearman_slip_current"])
 
 
 def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,

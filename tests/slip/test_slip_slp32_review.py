@@ -325,3 +325,16 @@ def test_measured_checks_count_and_say_the_windows_without_a_yaw_rate(n, seed, d
         alone = measured_checks(X[keep].reset_index(drop=True), pred[keep], runs[keep],
                                 terrains[keep], 0.5)
     pd.testing.assert_frame_equal(table.drop(columns="n_runs"), alone.drop(columns="n_runs"))
+
+
+def test_measured_checks_of_no_window_is_a_table_without_rows_with_its_columns():
+    """No window (every one filtered out upstream) gave a frame without any column, where
+    error_table and std_calibration_table keep theirs: a KeyError for whoever reads it."""
+    table = measured_checks(_features(_MEASURED, 0), np.zeros((0, 4)), np.array([], str),
+                            np.array([], str), 0.5)
+    assert table.empty and list(table.columns) == [
+        "terrain", "n_runs", "n_turning_windows", "yaw_rms_plain_rad_s",
+        "yaw_rms_compensated_rad_s", "median_learned_minus_physics", "spearman_slip_current"]
+    one = measured_checks(_features(_MEASURED, 1), np.ones((1, 4)), np.array(["r"]),
+                          np.array(["T"]), 0.5)
+    assert list(one.columns) == list(table.columns)
