@@ -17,6 +17,7 @@ from terrain.run import Run
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
                                      measured_checks, observer_window_slip, odometry_errors,
                                      std_calibration_table, steady_straight)
+from terrain.slip.estimate import FusionSettings, pseudo_measurement
 from terrain.slip.learned import SlipRegressor
 from terrain.slip.odometry import dead_reckon
 
@@ -338,3 +339,73 @@ def test_measured_checks_of_no_window_is_a_table_without_rows_with_its_columns()
     one = measured_checks(_features(_MEASURED, 1), np.ones((1, 4)), np.array(["r"]),
                           np.array(["T"]), 0.5)
     assert list(one.columns) == list(table.columns)
+
+
+@FAST
+@given(seed=st.integers(0, 9999), k=st.integers(2, 8), rho=st.one_of(
+    st.none(), st.floats(-1, 1)), source=st.sampled_from(["physics", "learned", "fused"]))
+def test_fused_pseudo_measurement_is_a_convex_mix_mirrored_and_scaled(seed, k, rho, source):
+    """The fused slip lies between the physics and the learned slip, its std is at most the
+    larger of theirs (the smaller with no correlation given); swapping the sides swaps
+    the outputs; every slip, std and the floor scaled by 2^k scale slip and std by 2^k."""
+    rng = np.random.default_rng(seed)
+    m = 7
+    t = np.arange(m) + 1.0
+    sp, sl = rng.uniform(-0.3, 0.9, (2, m, 2))
+    vp, cal = rng.uniform(1e-3, 0.2, (2, m, 2))
+    cal[rng.random((m, 2)) < 0.3] = np.nan      # an uncalibrated window: the heuristic std
+    settings_ = FusionSettings(min_std=1e-4, learned_std_floor=0.01, error_correlation=rho)
+    outputs = {"physics": (t, sp, vp), "learned": (t, sl, cal)}
+    _, slip, std = pseudo_measurement(outputs, source, settings_)
+    if source == "fused":
+        assert np.all(slip >= np.minimum(sp, sl) - 1e-12)
+        assert np.all(slip <= np.maximum(sp, sl) + 1e-12)
+        _, _, vl = pseudo_measurement(outputs, "learned", settings_)
+        assert np.all(std <= np.maximum(vp, vl) * (1 + 1e-12))
+        if rho is None:
+            np.testing.assert_array_equal(std, np.minimum(vp, vl))
+    swapped = {key: (tt, s[:, ::-1], v[:, ::-1]) for key, (tt, s, v) in outputs.items()}
+    _, slip_s, std_s = pseudo_measurement(swapped, source, settings_)
+    np.testing.assert_array_equal(slip_s, slip[:, ::-1])
+    np.testing.assert_array_equal(std_s, std[:, ::-1])
+    c = 2.0 ** k
+    scaled = {key: (tt, c * s, c * v) for key, (tt, s, v) in outputs.items()}
+    _, slip_c, std_c = pseudo_measurement(scaled, source, FusionSettings(
+        min_std=c * 1e-4, learned_std_floor=c * 0.01, error_correlation=rho))
+    np.testing.assert_allclose(slip_c, c * slip, rtol=1e-12, atol=1e-15)
+    np.testing.assert_allclose(std_c, c * std, rtol=1e-12)
+
+
+@FAST
+@given(seed=st.integers(0, 9999))
+def test_fused_std_of_independent_and_of_fully_correlated_errors(seed):
+    """Textbook cases of the inverse-variance mean: independent errors (rho 0) give
+    1 / sqrt(1 / vp^2 + 1 / vl^2); fully correlated ones (rho 1) the weighted mean of the
+    stds, ap vp + al vl."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(5.0)
+    sp, sl = rng.uniform(-0.3, 0.9, (2, 5, 2))
+    vp, vl = rng.uniform(1e-3, 0.2, (2, 5, 2))
+    outputs = {"physics": (t, sp, vp), "learned": (t, sl, vl)}
+    _, _, std0 = pseudo_measurement(outputs, "fused", FusionSettings(min_std=1e-6,
+                                                                     error_correlation=0.0))
+    np.testing.assert_allclose(std0, (vp ** -2 + vl ** -2) ** -0.5, rtol=1e-12)
+    _, _, std1 = pseudo_measurement(outputs, "fused", FusionSettings(min_std=1e-6,
+                                                                     error_correlation=1.0))
+    ap = vp ** -2 / (vp ** -2 + vl ** -2)
+    np.testing.assert_allclose(std1, ap * vp + (1 - ap) * vl, rtol=1e-12)
+
+
+@FAST
+@given(seed=st.integers(0, 9999), r=st.lists(st.floats(-1, 1), min_size=2, max_size=2))
+def test_fused_std_grows_with_the_assumed_error_correlation(seed, r):
+    """The std of a weighted mean grows with the correlation of the errors averaged, on
+    both sides of 0."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(5.0)
+    outputs = {"physics": (t, *rng.uniform(1e-3, 0.3, (2, 5, 2))),
+               "learned": (t, *rng.uniform(1e-3, 0.3, (2, 5, 2)))}
+    lo, hi = sorted(r)
+    stds = [pseudo_measurement(outputs, "fused", FusionSettings(
+        min_std=1e-9, error_correlation=rho))[2] for rho in (lo, hi)]
+    assert np.all(stds[0] <= stds[1] * (1 + 1e-12) + 1e-15)
