@@ -110,11 +110,18 @@ def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarra
     ------
     MissingColumnError
         ``meta`` lacks ``scenario`` or ``t_start_s`` (named).
+    ShapeError
+        ``yaw_rate_rad_s`` is not one value per window (a column (n, 1) broadcast into an
+        (n, n) mask, another length was a bare numpy error).
     """
     _group_columns("steady_straight", meta, ("scenario", "t_start_s"), what="provenance")
+    yaw = np.asarray(yaw_rate_rad_s, dtype=float)
+    if yaw.shape != (len(meta),):
+        raise ShapeError(f"steady_straight: yaw_rate_rad_s must have shape ({len(meta)},) "
+                         f"(one per window of meta), got {yaw.shape}")
     return ((meta["scenario"].to_numpy() == "straight_accel")
             & (meta["t_start_s"].to_numpy() >= STEADY_AFTER_S)
-            & (np.abs(np.asarray(yaw_rate_rad_s, dtype=float)) < 0.05))
+            & (np.abs(yaw) < 0.05))
 
 
 def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,

@@ -12,7 +12,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from sklearn.linear_model import LinearRegression
 
-from terrain.errors import ConfigError, DataWarning, EstimationError, MissingColumnError
+from terrain.errors import (ConfigError, DataWarning, EstimationError, MissingColumnError,
+                            ShapeError)
 from terrain.run import Run
 from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_one_out,
                                      measured_checks, observer_window_slip, odometry_errors,
@@ -423,3 +424,14 @@ def test_fused_pseudo_measurement_keeps_the_learned_slip_where_the_physics_std_i
                "learned": (t, np.full((2, 2), 0.12), np.full((2, 2), 0.02))}
     _, slip, std = pseudo_measurement(outputs, "fused", FusionSettings(min_std=1e-5))
     assert slip[0, 0] == 0.12 and std[0, 0] == 0.02
+
+
+@pytest.mark.parametrize("yaw", [np.zeros((6, 1)), np.zeros(5), np.zeros(7), 0.0])
+def test_steady_straight_refuses_a_yaw_rate_not_one_per_window(yaw):
+    """A yaw-rate column (n, 1) broadcast into an (n, n) mask without a word, another
+    length was numpy's bare broadcast error."""
+    meta = _meta(2, 3).assign(scenario="straight_accel", t_start_s=4.0)
+    with pytest.raises(ShapeError, match=r"steady_straight: yaw_rate_rad_s must have shape "
+                       r"\(6,\)"):
+        steady_straight(meta, yaw)
+    assert steady_straight(meta, np.zeros(6)).tolist() == [True] * 6
