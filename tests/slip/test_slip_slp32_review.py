@@ -435,3 +435,14 @@ def test_steady_straight_refuses_a_yaw_rate_not_one_per_window(yaw):
                        r"\(6,\)"):
         steady_straight(meta, yaw)
     assert steady_straight(meta, np.zeros(6)).tolist() == [True] * 6
+
+
+def test_a_zero_std_with_an_error_is_scored_uncovered_and_without_one_is_left_out():
+    """std 0: an error > 0 is infinitely many stds off (scored, not covered); no error is
+    0 / 0, no normalised error (counted out of n_scored)."""
+    meta = _meta(1, 2)
+    std = np.array([[0.0, 1.0], [0.0, 1.0]])
+    pred = np.array([[0.5, 0.0], [0.0, 0.0]])
+    table = std_calibration_table(pred, std, np.zeros((2, 2)), meta, np.ones(2, bool))
+    row = table.iloc[0]
+    assert row["n_scored"] == 3 and row["coverage_1std"] == 2 / 3
