@@ -19,7 +19,7 @@ from terrain.slip.evaluation import (baseline_predictions, fit_predict, leave_on
                                      measured_checks, observer_window_slip, odometry_errors,
                                      std_calibration_table, steady_straight)
 from terrain.slip.estimate import FusionSettings, pseudo_measurement
-from terrain.slip.learned import SlipRegressor
+from terrain.slip.learned import SlipRegressor, calibration_folds
 from terrain.slip.odometry import dead_reckon
 
 FAST = settings(max_examples=30, deadline=None)
@@ -446,3 +446,35 @@ def test_a_zero_std_with_an_error_is_scored_uncovered_and_without_one_is_left_ou
     table = std_calibration_table(pred, std, np.zeros((2, 2)), meta, np.ones(2, bool))
     row = table.iloc[0]
     assert row["n_scored"] == 3 and row["coverage_1std"] == 2 / 3
+
+
+@FAST
+@given(seed=st.integers(0, 9999), n_runs=st.integers(2, 7), n_folds=st.integers(2, 4))
+def test_calibration_folds_are_grouped_and_blind_to_names_row_order_and_sides(
+        seed, n_runs, n_folds):
+    """Every window in one test fold, no run on both sides; renaming the runs (a random
+    relabelling), shuffling the rows or swapping the sides deals the same windows together."""
+    n_folds = min(n_folds, n_runs)
+    rng = np.random.default_rng(seed)
+    sizes = rng.integers(1, 5, n_runs)
+    groups = np.repeat(np.arange(n_runs), sizes)
+    n = len(groups)
+    X = rng.normal(size=(n, 3))
+    y = np.column_stack([rng.normal(size=(n, 2)), np.full(n, np.nan), rng.normal(size=n)])
+
+    def partition(folds, rows=np.arange(n)):
+        return sorted(sorted(rows[te].tolist()) for _, te in folds)
+
+    folds = calibration_folds(X, y, groups, n_folds)
+    test_of = np.concatenate([te for _, te in folds])
+    assert sorted(test_of.tolist()) == list(range(n))
+    for tr, te in folds:
+        assert not set(groups[tr]) & set(groups[te])
+        assert sorted(np.concatenate([tr, te]).tolist()) == list(range(n))
+    base = partition(folds)
+    names = np.array([f"run-{v}" for v in rng.permutation(1000)[:n_runs]])
+    assert partition(calibration_folds(X, y, names[groups], n_folds)) == base
+    order = rng.permutation(n)
+    assert partition(calibration_folds(X[order], y[order], groups[order], n_folds),
+                     order) == base
+    assert partition(calibration_folds(X, y[:, [1, 0, 2, 3]], groups, n_folds)) == base
