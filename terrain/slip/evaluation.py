@@ -540,8 +540,8 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     X : pandas.DataFrame, shape (n, n_features)
         Window features (``pitch``, ``vel_l__mean``, ``vel_r__mean``, ``wz__mean``,
         ``phys_slip_l``, ``phys_slip_r``).
-    Y : ndarray, shape (n, >= 2)
-        True ``slip_1, slip_2`` (only the ``train`` rows are read).
+    Y : array-like, shape (n, >= 2)
+        True ``slip_1, slip_2`` (only the ``train`` rows are read; a nested list too).
     meta : pandas.DataFrame, shape (n, ...)
         Window provenance.
     train : ndarray of bool, shape (n,)
@@ -559,7 +559,9 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     ------
     ShapeError
         ``train`` is not a boolean array of one value per window (an integer 0/1 mask
-        fancy-indexed the windows: eq. 22 fitted on windows 0 and 1 only, silently).
+        fancy-indexed the windows: eq. 22 fitted on windows 0 and 1 only, silently), or
+        ``Y`` is not ``(n, >= 2)`` with ``n`` the windows of ``X`` (one column was read as
+        the slip of both sides, a list or another row count was a bare numpy error).
     MissingColumnError
         ``X`` lacks a feature column above or ``meta`` its ``terrain`` (named).
     """
@@ -574,7 +576,9 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
     terr = meta["terrain"].to_numpy()
     pitch = X["pitch"].to_numpy()
     straight = train & (np.abs(X["wz__mean"].to_numpy()) < 0.05)   # eq. 22: straight driving
-    coef = fit_pitch_slip(pitch[straight], Y[straight, :2].mean(axis=1), terr[straight])
+    # (a list or a 1-D Y was a bare numpy error; one column was taken for both sides)
+    sides = _window_sides("baseline_predictions", "Y", Y, len(X))
+    coef = fit_pitch_slip(pitch[straight], sides[straight].mean(axis=1), terr[straight])
     eq22 = pitch_slip(coef, pitch, terr)
     rim = X[["vel_l__mean", "vel_r__mean"]].to_numpy(dtype=float)
     return {

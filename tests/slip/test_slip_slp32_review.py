@@ -478,3 +478,24 @@ def test_calibration_folds_are_grouped_and_blind_to_names_row_order_and_sides(
     assert partition(calibration_folds(X[order], y[order], groups[order], n_folds),
                      order) == base
     assert partition(calibration_folds(X, y[:, [1, 0, 2, 3]], groups, n_folds)) == base
+
+
+@pytest.mark.parametrize("Y", [np.zeros((6, 1)), np.zeros((5, 2)), np.zeros(6)])
+def test_baseline_predictions_refuse_truth_not_both_sides_of_every_window(Y):
+    """One truth column was taken for the slip of both sides in the eq. 22 fit, silently;
+    another row count or a 1-D truth was a bare numpy IndexError."""
+    with pytest.raises(ShapeError, match=r"baseline_predictions: Y must have shape \(6, >= 2\)"):
+        baseline_predictions(_features(_BASELINE), Y, _meta(2, 3), np.ones(6, bool), [], 0.5)
+
+
+def test_baseline_predictions_take_the_truth_as_a_nested_list():
+    X, meta = _features(_BASELINE), _meta(1, 6)
+    X["wz__mean"] = 0.0
+    Y = np.random.default_rng(2).uniform(0, 0.2, (6, 4))
+    runs, _, _ = _odometry_case(("sim/SNOW/turn/0",))
+    meta = meta.assign(run_id=runs[0].run_id, terrain="SNOW")
+    imu = pd.DataFrame({"t_s": runs[0].streams["wheels"]["t_s"], "wz": 0.0})
+    run = Run(runs[0].run_id, "sim", "SNOW", {**runs[0].streams, "imu": imu})
+    a = baseline_predictions(X, Y, meta, np.ones(6, bool), [run], 0.55)
+    b = baseline_predictions(X, Y.tolist(), meta, np.ones(6, bool), [run], 0.55)
+    np.testing.assert_array_equal(a["pitch-linear"], b["pitch-linear"])
