@@ -582,7 +582,7 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     sd_within = within_window_current_std(current_within_std_a, settings.current_std_a,
                                           cur.shape)
     mean = np.zeros_like(cur)
-    second = np.zeros_like(cur)
+    terms = []                          # (weight, slip) of each terrain and sign
     within = np.zeros_like(cur)
     lower = np.zeros_like(cur)
     upper = np.zeros_like(cur)
@@ -611,7 +611,7 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
             sd = (hi - lo) / (2.0 * k)
             w = p[:, None] * share
             mean += w * est.slip
-            second += w * est.slip ** 2
+            terms.append((w, est.slip))
             within += w * sd ** 2
             lower += w * lo
             upper += w * hi
@@ -627,8 +627,11 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
             better = p_row > best_p
             saturated[better] = est.saturated[better]
             best_p[better] = p_row[better]
-    # law of total variance: within-terrain variance + spread of the terrain-wise slips
-    between = np.sqrt(np.maximum(second - mean ** 2, 0.0))
+    # law of total variance: within-terrain variance + spread of the terrain-wise slips,
+    # the spread summed about the mean (E[s^2] - E[s]^2 cancelled: terrains of one slip
+    # left a rounding of 1e-16, whose root, 1e-8, moved the interval with the order of the
+    # classes)
+    between = np.sqrt(sum(w * (slip - mean) ** 2 for w, slip in terms))
     std = np.sqrt(within + between ** 2)
     return PhysicsSlip(mean, std, np.clip(lower - k * between, -1, 1),
                        np.clip(upper + k * between, -1, 1), mu_w, saturated)
