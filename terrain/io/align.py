@@ -42,6 +42,7 @@ offset is applied here. An estimated lag between streams is the business of the 
 from __future__ import annotations
 
 import functools
+import numbers
 from typing import Sequence
 
 import numba
@@ -50,7 +51,7 @@ import pandas as pd
 from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_integer,
-                            config_numbers, config_positive, duplicated, holds_booleans)
+                            config_numbers, config_positive, duplicated)
 from terrain.run import TIME, Run, clock_slack, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -522,6 +523,63 @@ def check_gap_factor(owner: str, gap_factor: float) -> None:
                           f"than gap_factor x the median step is a gap), got {gap_factor!r}")
 
 
+def missing_cell(cell) -> bool:
+    """Whether a cell of an object column is missing: None, pandas' ``NA`` or ``NaT``.
+
+    Parameters
+    ----------
+    cell : object
+        One cell.
+
+    Returns
+    -------
+    bool
+    """
+    return cell is None or cell is pd.NA or cell is pd.NaT
+
+
+def real_number(cell) -> bool:
+    """Whether a cell is a real number: not a boolean, nor a ``np.timedelta64`` (a NumPy
+    integer, which counts as a real number).
+
+    Parameters
+    ----------
+    cell : object
+        One cell.
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(cell, numbers.Real) and not isinstance(cell, (bool, np.bool_,
+                                                                    np.timedelta64))
+
+
+def first_non_number(cells: pd.Series) -> int | None:
+    """Row of the first cell of a column that is neither a real number nor missing (text,
+    bytes, a date, a duration, a boolean, a complex number), or None: the one rule of a
+    clock's cells, for the alignment (booleans were the times 0 and 1 s, text the numbers
+    it spells) and the writer (a date was written as its text).
+
+    Parameters
+    ----------
+    cells : pandas.Series
+        The column.
+
+    Returns
+    -------
+    int or None
+        0 for a column whose dtype holds no real number (boolean, text, dates, durations,
+        complex), the first such cell's row in an object column, None otherwise.
+    """
+    if cells.dtype.kind in "iuf":
+        return None
+    if cells.dtype.kind != "O" or isinstance(cells.dtype, pd.StringDtype):
+        return 0
+    return next((k for k, c in enumerate(cells) if not (real_number(c) or missing_cell(c))),
+                None)
+
+
 def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                   rate_hz: float = DEFAULT_RATE_HZ, gap_factor: float = 3.0) -> pd.DataFrame:
     """Put the named streams of ``run`` on one uniform clock.
@@ -585,9 +643,7 @@ def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),
                                   "to align is unknown; rename or drop one", run.source,
                                   str(twice[0]))
         clock = frame[TIME]
-        row = 0 if holds_booleans(clock) or clock.dtype.kind in "SUmM" else next(
-            (k for k, c in enumerate(clock) if isinstance(c, (str, bytes, bool, np.bool_))),
-            None) if clock.dtype.kind == "O" else None
+        row = first_non_number(clock)
         if row is not None:
             # (booleans were the times 0 and 1 s, text the numbers it spells)
             raise TimestampError(f"stream {name!r}: timestamps must be numbers (s), got "

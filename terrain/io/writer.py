@@ -27,6 +27,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import ConfigError, config_integer, duplicated
+from terrain.io.align import first_non_number, missing_cell, real_number
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
                                  known_vehicle, parse_cells)
@@ -246,16 +247,7 @@ def _unwritable_cell(cells: pd.Series):
 def _written_as_is(cell) -> bool:
     """Whether a cell of an object column is text, a real number (not a boolean) or
     missing (:func:`_missing_numbers` and the text rule judge those)."""
-    if isinstance(cell, str) or cell is None or cell is pd.NA or cell is pd.NaT:
-        return True
-    return _real_number(cell)
-
-
-def _real_number(cell) -> bool:
-    """Whether a cell is a real number: not a boolean, nor a ``np.timedelta64`` (a NumPy
-    integer, which counts as a real number)."""
-    return isinstance(cell, numbers.Real) and not isinstance(cell, (bool, np.bool_,
-                                                                    np.timedelta64))
+    return isinstance(cell, str) or missing_cell(cell) or real_number(cell)
 
 
 def _refuse_unreadable_text(run: Run, frames: dict[str, pd.DataFrame]) -> None:
@@ -328,7 +320,7 @@ def _refuse_unreadable_time(run: Run) -> None:
     for name, frame in run.streams.items():
         if TIME not in frame:
             continue
-        row = _first_non_number(frame[TIME])
+        row = first_non_number(frame[TIME])
         if row is not None:     # (text: float()'s bare ValueError; a date: its text)
             cell = frame[TIME].iloc[row]
             raise ConfigError(
@@ -351,17 +343,6 @@ def _refuse_unreadable_time(run: Run) -> None:
                 f"{t[row - 1]!r} at row {row} ({back.size} such row(s)); the readers take "
                 f"timestamps that increase strictly and would refuse "
                 f"{file_kind(name)}_XX.csv: sort the stream or drop the repeats")
-
-
-def _first_non_number(cells: pd.Series) -> int | None:
-    """Row of the first cell of a column that is not a real number nor missing (text, a
-    date, a duration, a boolean), or None."""
-    if cells.dtype.kind in "iuf":
-        return None
-    if cells.dtype.kind != "O" or isinstance(cells.dtype, pd.StringDtype):
-        return 0
-    return next((k for k, c in enumerate(cells) if not (
-        _real_number(c) or c is None or c is pd.NA or c is pd.NaT)), None)
 
 
 def _refuse_missing_columns(run: Run, frames: dict[str, pd.DataFrame]) -> None:
@@ -391,7 +372,7 @@ def _missing_numbers(cells: pd.Series) -> np.ndarray:
     if cells.dtype.kind != "O" or any(isinstance(c, str) for c in cells):
         return np.zeros(0, dtype=int)
     # (math.isinf of a np.timedelta64, a NumPy integer, was a bare TypeError)
-    infinite = [_real_number(c) and math.isinf(c) for c in cells]
+    infinite = [real_number(c) and math.isinf(c) for c in cells]
     return np.flatnonzero(cells.isna().to_numpy() | np.array(infinite, dtype=bool))
 
 
