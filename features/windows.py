@@ -22,9 +22,8 @@ import pandas as pd
 from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, ShapeError,
-                            TimestampError,
-                            config_flags, config_numbers, config_positive, duplicated,
-                            first_items, listed)
+                            TimestampError, config_flags, config_numbers, config_positive,
+                            duplicated, first_items, listed)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, body_rates, get_vehicle
