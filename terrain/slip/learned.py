@@ -132,8 +132,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             ``X`` is not 2-D, ``y`` is not ``(n_windows, 4)``, or ``groups`` has another
             length than ``X``.
         NonFiniteInputError
-            A ``slip_1``, ``slip_2`` or ``v_by`` target is NaN or infinite, a ``chi``
-            target is infinite, or a run of ``groups`` is missing (NaN or None).
+            A feature of ``X`` is infinite (the message names its column and row; NaN is a
+            missing feature, which the trees learn where to send), a ``slip_1``, ``slip_2``
+            or ``v_by`` target is NaN or infinite, a ``chi`` target is infinite, or a run of
+            ``groups`` is missing (NaN or None).
 
         Warns
         -----
@@ -166,6 +168,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         y = np.asarray(y, dtype=float)
         if X.ndim != 2:
             raise ShapeError(f"X must have shape (n_windows, n_features), got {X.shape}")
+        # (scikit-learn's trees took inf as the largest value, without a word)
+        _refuse_infinite("SlipRegressor.fit", X, names)
         if y.ndim != 2 or y.shape != (len(X), len(SLIP_OUTPUTS)):
             raise ShapeError(f"y must have shape ({len(X)}, {len(SLIP_OUTPUTS)}), got {y.shape}")
         for i in (0, 1, 3):         # chi alone may be NaN (undefined when not turning)
@@ -281,14 +285,14 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
-        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError, NonFiniteInputError
             As :meth:`predict`.
         ConfigError
             Unknown ``moment``.
         """
         if moment not in ("median", "variance"):
             raise ConfigError(f"unknown moment {moment!r}; valid: median, variance")
-        X = self._check_X(X)
+        X = self._check_X(X, "predict_std")
         if getattr(self, "std_model_", None) is None:
             return np.full((len(X), 2), np.nan)
         z = predict_packed(self.packed_std_, X)[:, 0]
@@ -302,17 +306,20 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
                 *([self.chi_model_] if self.chi_model_ is not None else []),
                 self.lateral_model_]
 
-    def _check_X(self, X) -> np.ndarray:
+    def _check_X(self, X, method: str) -> np.ndarray:
         check_is_fitted(self, "slip_models_")       # not a bare AttributeError before fit
         fitted = getattr(self, "feature_names_in_", None)  # absent: stored before the names
         wrong = (feature_names_mismatch([str(c) for c in X.columns], list(fitted))
                  if fitted is not None and isinstance(X, pd.DataFrame) else None)
         if wrong is not None:       # a named table of any width: name its columns
             raise wrong
+        names = list(X.columns) if isinstance(X, pd.DataFrame) else fitted
         X = np.asarray(X, dtype=float)
         if X.ndim != 2 or X.shape[1] != self.n_features_in_:
             raise ShapeError(f"X must have shape (n_windows, {self.n_features_in_}), "
                              f"got {X.shape}")
+        # (the compiled trees and scikit-learn's predict took inf as the largest value)
+        _refuse_infinite(f"SlipRegressor.{method}", X, names)
         return X
 
     def predict(self, X) -> np.ndarray:
@@ -342,8 +349,12 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             The model has ``feature_names_in_`` and ``X`` is a DataFrame whose columns are
             not those in that order, whatever its width (the message names the missing,
             extra or misplaced columns: :func:`feature_names_mismatch`).
+        NonFiniteInputError
+            A feature of ``X`` is infinite, naming its column (as ``feature_names_in_`` when
+            the model has them, else its position) and row; NaN is a missing feature, as in
+            :meth:`fit`.
         """
-        X = self._check_X(X)
+        X = self._check_X(X, "predict")
         packed = getattr(self, "packed_trees_", None)
         if packed is None:              # a model fitted before the adaptor existed
             packed = pack_trees(self._estimators(), self.n_features_in_)
@@ -371,10 +382,10 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
-        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError, NonFiniteInputError
             As :meth:`predict`.
         """
-        X = self._check_X(X)
+        X = self._check_X(X, "predict_reference")
         chi = (self.chi_model_.predict(X) if self.chi_model_ is not None
                else np.full(len(X), self.chi_default_))
         return np.column_stack([m.predict(X) for m in self.slip_models_]
@@ -398,7 +409,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
 
         Raises
         ------
-        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError
+        sklearn.exceptions.NotFittedError, ShapeError, MissingColumnError, NonFiniteInputError
             As :meth:`predict`; ShapeError also for a ``y`` without one row per window of
             ``X`` and at least the two slip columns.
         """
@@ -483,6 +494,19 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     fold_of = fold_of_run[run_of]
     return [(np.flatnonzero(fold_of != f), np.flatnonzero(fold_of == f))
             for f in range(n_folds)]
+
+
+def _refuse_infinite(owner: str, X: np.ndarray, names) -> None:
+    """Raise :class:`NonFiniteInputError` where the features ``X`` hold an infinite value,
+    naming the first one's column and row (NaN passes: a missing value, which the trees
+    learn where to send)."""
+    bad = np.isinf(X)
+    if bad.any():
+        rows, cols = np.nonzero(bad)        # (row-major: the first row first)
+        column = repr(str(names[cols[0]])) if names is not None else str(cols[0])
+        raise NonFiniteInputError(f"{owner}: X holds {int(bad.sum())} infinite value(s), the "
+                                  f"first in column {column}, row {rows[0]} (0-based): a "
+                                  "feature is finite, or NaN where it is missing")
 
 
 def _text_columns(X) -> np.ndarray | None:
