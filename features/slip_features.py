@@ -31,9 +31,9 @@ import pandas as pd
 from features.calculators import mean, regression_gain, std
 from features.windows import (WindowConfig, WindowSet, derived_track_m, make_windows,
                               refuse_non_finite)
-from terrain.errors import (ConfigError, NonFiniteInputError, config_positive, duplicated,
-                            first_items, listed, real_arrays, refuse_booleans)
-from terrain.io.align import interpolated_mean_count
+from terrain.errors import (ConfigError, NonFiniteInputError, NonNumericError, config_positive,
+                            duplicated, first_items, listed, real_arrays, refuse_booleans)
+from terrain.io.align import first_non_number, interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
 from terrain.slip.physics import (physics_slip, pitch_from_accelerometer,
@@ -107,8 +107,13 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
         of booleans.
     DataFormatError
         ``ws.X`` holds booleans or does not convert to real numbers
-        (:func:`slip_feature_matrix`), or a probability column does not convert to real
-        numbers (naming it).
+        (:func:`slip_feature_matrix`).
+    NonNumericError
+        A probability that is not a number: text (``"1"`` too, which NumPy read as 1.0),
+        bytes, a complex number, a boolean among numbers (a
+        :class:`~terrain.errors.DataFormatError` naming the terrain's column and the row:
+        :func:`terrain.io.align.first_non_number`, row 0 for a column whose dtype holds no
+        real number).
     NonFiniteInputError
         ``ws.X`` holds NaN or inf, naming the channels and the first windows.
     """
@@ -121,8 +126,12 @@ def slip_features(ws: WindowSet, vehicle, terrain_probabilities: pd.DataFrame | 
         # (read as float first, a mask of the terrain seen passed slip_feature_matrix's
         # boolean check as probabilities 0 and 1, and text failed in pandas naming nothing)
         columns = {str(k): terrain_probabilities[k] for k in terrain_probabilities.columns}
-        probs = dict(zip(columns, real_arrays("slip_features", ConfigError, **{
-            f"probability of {k}": v for k, v in columns.items()})))
+        named = {f"probability of {k}": v for k, v in columns.items()}
+        # a mask first, as real_arrays judges it; then text, which NumPy parsed ("1" was
+        # probability 1.0), and other values that are not numbers, named with their row
+        refuse_booleans(ConfigError, "slip_features", **named)
+        _refuse_non_numbers("slip_features", named)
+        probs = dict(zip(columns, real_arrays("slip_features", ConfigError, **named)))
     names, values = slip_feature_matrix(ws.X, ws.channels, ws.rate_hz, vehicle, probs,
                                         current_rate_hz)
     return pd.DataFrame(values, columns=list(names))
@@ -170,6 +179,9 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text), as
         :func:`slip_feature_matrix` judges the windows.
+    NonNumericError
+        A terrain probability that is not a number (text such as ``"1"``, bytes, a complex
+        number), naming the terrain, as :func:`slip_features` judges a column.
     NonFiniteInputError
         ``x`` holds NaN or inf, naming the channel (:func:`slip_feature_matrix`).
     """
@@ -179,8 +191,10 @@ def window_feature_vector(x: np.ndarray, channels: Sequence[str], rate_hz: float
                           f"got {x.shape}")
     if terrain_probabilities is not None:     # (True was read as probability 1)
         _refuse_repeated_terrains("window_feature_vector", terrain_probabilities)
-        refuse_booleans(ConfigError, "window_feature_vector", **{
-            f"probability of {k}": v for k, v in terrain_probabilities.items()})
+        named = {f"probability of {k}": v for k, v in terrain_probabilities.items()}
+        refuse_booleans(ConfigError, "window_feature_vector", **named)
+        _refuse_non_numbers("window_feature_vector", {   # ("1" was read as 1.0)
+            name: pd.Series([v], dtype=object) for name, v in named.items()}, rows=False)
     probs = (None if terrain_probabilities is None else
              {str(k): np.asarray([v], dtype=float) for k, v in terrain_probabilities.items()})
     return slip_feature_matrix(x[None], channels, rate_hz, vehicle, probs,
@@ -296,6 +310,22 @@ def slip_feature_matrix(x: np.ndarray, channels: Sequence[str], rate_hz: float, 
     for j, v in enumerate(cols.values()):
         values[:, j] = v
     return tuple(cols), values
+
+
+def _refuse_non_numbers(owner: str, named: Mapping[str, pd.Series], rows: bool = True
+                        ) -> None:
+    """Refuse terrain probabilities that are not numbers (text, even text that spells one,
+    bytes, a complex number, a date, a boolean among numbers) by the one rule of cells that
+    must be numbers, :func:`terrain.io.align.first_non_number`: a
+    :class:`~terrain.errors.NonNumericError` naming the terrain and (``rows``) the row."""
+    for name, cells in named.items():
+        row = first_non_number(cells)
+        if row is not None:
+            value = cells.iloc[row]
+            raise NonNumericError(f"{owner}: {name} holds a value that is not a number "
+                                  f"({type(value).__name__} {value!r:.40}): a terrain "
+                                  "probability is a number in [0, 1]",
+                                  column=name, row=row if rows else None)
 
 
 def _refuse_repeated_terrains(owner: str, names) -> None:
