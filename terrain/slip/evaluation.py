@@ -646,8 +646,10 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     -----
     DataWarning
         Turning windows whose predicted chi lies outside :data:`CHI_RANGE` had it clipped
-        (their count); windows whose ``wz__mean`` is NaN, neither turning nor straight, were
-        left out of every figure (their count and the first few).
+        (their count); windows whose ``wz__mean`` is NaN, and windows whose ``|wz__mean|``
+        lies between the straight and the turning threshold (``0.05 <= |wz__mean| <
+        min_turn_rad_s``), neither turning nor straight, were left out of every figure
+        (each their count and the first few).
     """
     from scipy.stats import spearmanr
 
@@ -678,6 +680,15 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
                       f"windows ({first_items(np.flatnonzero(unknown).tolist(), word='window')})",
                       DataWarning, stacklevel=2)
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on
+    straight_all = np.abs(wz) < 0.05
+    between = ~(turning | straight_all | unknown)
+    if between.any():   # neither turning nor straight either: left out, said
+        warnings.warn(f"measured_checks: {int(between.sum())} of {n} windows have a gyro yaw "
+                      f"rate between the straight (|wz__mean| < 0.05 rad/s) and the turning "
+                      f"(>= {min_turn_rad_s:g} rad/s) thresholds and are left out of the "
+                      f"turning and the straight windows "
+                      f"({first_items(np.flatnonzero(between).tolist(), word='window')})",
+                      DataWarning, stacklevel=2)
     chi, n_out = _clip_chi(np.where(turning, pred[:, 2], 1.0))
     if n_out:
         warnings.warn(f"measured_checks: chi of {n_out} of {int(turning.sum())} turning "
@@ -689,8 +700,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
     rows = []
     for terr in np.unique(terrains):
         sel = terrains == terr
-        turn = sel & (np.abs(wz) >= min_turn_rad_s)
-        straight = sel & (np.abs(wz) < 0.05)
+        turn = sel & turning
+        straight = sel & straight_all
         rms = (lambda r: float(np.sqrt(np.mean(r ** 2))) if r.size else np.nan)
         rho = (float(spearmanr(slip[straight], cur[straight]).statistic)
                if straight.sum() > 3 else np.nan)
