@@ -23,6 +23,7 @@ speeds gives the true yaw rate ``(v_R - v_L) / (chi B)``.
 
 from __future__ import annotations
 
+import warnings
 from typing import Mapping, Sequence
 
 import numpy as np
@@ -31,8 +32,9 @@ import pandas as pd
 from features.calculators import mean, regression_gain, std
 from features.windows import (WindowConfig, WindowSet, derived_track_m, make_windows,
                               refuse_non_finite)
-from terrain.errors import (ConfigError, NonFiniteInputError, NonNumericError, config_positive,
-                            duplicated, first_items, listed, real_arrays, refuse_booleans)
+from terrain.errors import (ConfigError, DataWarning, NonFiniteInputError, NonNumericError,
+                            config_positive, duplicated, first_items, listed, real_arrays,
+                            refuse_booleans)
 from terrain.io.align import first_non_number, interpolated_mean_count
 from terrain.run import TIME, Run, runs_by_id, step_index
 from terrain.sim.sensors import SensorSettings
@@ -374,8 +376,9 @@ def one_hot_probabilities(labels: Sequence[str], terrains: Sequence[str]) -> pd.
 
 
 def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndarray
-                  ) -> np.ndarray:
-    # the mean of the samples in [t0, t1) of each column; NaN where the window holds none,
+                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    # the mean of the samples in [t0, t1) of each column, and the window's samples a:b (its
+    # first and one past its last); NaN where the window holds none,
     # or holds a NaN or inf (counted apart: in the running sum one made every later window
     # NaN). A sample on an edge (within the clock's rounding, the placement rule step_index)
     # is the window's it starts: by raw float comparison the 100 Hz truth sample k * 0.01
@@ -390,7 +393,7 @@ def _window_means(t: np.ndarray, values: np.ndarray, t0: np.ndarray, t1: np.ndar
     out = (csum[b] - csum[a]) / n
     out[b <= a] = np.nan
     out[(cnan[b] - cnan[a]) > 0] = np.nan
-    return out
+    return out, a, b
 
 
 def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = None
@@ -417,7 +420,10 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
         within rounding of an edge on it, :func:`terrain.run.step_index`); a mean is NaN
         where its window holds no truth sample or a NaN or inf one (that window only), and
         ``chi`` where the window's mean ``|yaw_rate|`` is below :data:`MIN_TURN_RATE_RAD_S`
-        (a turn at exactly that rate has one).
+        (a turn at exactly that rate has one). ``terrain``: that of the window's truth
+        sample at (or first after) its middle, else of its last one before it (the window
+        half in a gap of the truth); missing (None) where the window holds no truth sample
+        (before the truth's start, past its end, in a gap of it), as its targets are NaN.
 
     Raises
     ------
@@ -429,7 +435,34 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
     MissingColumnError
         A ``truth`` stream lacks ``t_s`` or one of :data:`TRUTH_COLUMNS`, naming the run,
         the stream and the column.
+
+    Warns
+    -----
+    DataWarning
+        Windows holding no truth sample: their count, the first few and their runs (past
+        the truth's end they were labelled with its last terrain, without a word).
     """
+    out, unmeasured = _slip_targets(runs, ws, track_m)
+    if unmeasured.any():    # no target and no terrain: said, not left to be found out
+        warnings.warn(f"slip_targets: {_unmeasured(ws, unmeasured)}; their targets are NaN "
+                      "and their terrain missing (None)", DataWarning, stacklevel=2)
+    return out
+
+
+def _unmeasured(ws: WindowSet, unmeasured: np.ndarray) -> str:
+    """What a warning says of the windows holding no truth sample (their count, the first
+    few, their runs)."""
+    windows = np.flatnonzero(unmeasured)
+    return (f"{windows.size} of {len(ws)} windows hold no truth sample "
+            f"({first_items(windows.tolist(), limit=5, word='window')}; run(s) "
+            f"{listed(pd.unique(ws.run_ids[unmeasured]))}): before the truth's start, past "
+            "its end or in a gap of it")
+
+
+def _slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None
+                  ) -> tuple[pd.DataFrame, np.ndarray]:
+    """:func:`slip_targets` and the ``(n_windows,)`` mask of the windows holding no truth
+    sample (their terrain missing), without the warning."""
     if track_m is not None:
         config_positive("slip_targets", track_m=track_m)
     by_id: Mapping[str, Run] = runs_by_id(runs, "slip_targets")
@@ -441,6 +474,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
                        columns=["slip_1", "slip_2", "chi", "v_by", "yaw_rate", "terrain"],
                        dtype=object)
     tracks = np.full(len(ws), np.nan if track_m is None else float(track_m))
+    unmeasured = np.zeros(len(ws), dtype=bool)
     for rid in pd.unique(ws.run_ids):
         run = by_id.get(rid)
         if run is None:     # (a bare KeyError before)
@@ -452,16 +486,21 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
         tr = run.require_columns("truth", TRUTH_COLUMNS)
         sel = np.flatnonzero(ws.run_ids == rid)
         t = tr[TIME].to_numpy()
-        m = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate", "v_by"]].to_numpy(float),
-                          ws.t_start_s[sel], ws.t_end_s[sel])
-        labels = tr["terrain"].to_numpy()
-        mid = np.clip(np.searchsorted(t, 0.5 * (ws.t_start_s[sel] + ws.t_end_s[sel])), 0,
-                      len(t) - 1)
+        m, a, b = _window_means(t, tr[["slip_1", "slip_2", "yaw_rate", "v_by"]].to_numpy(
+            float), ws.t_start_s[sel], ws.t_end_s[sel])
+        # the terrain of the window's own truth sample at (or first after) its middle; none
+        # where it holds no sample (past the truth's end it was the last truth's terrain)
+        held = b > a
+        mid = np.clip(np.searchsorted(t, 0.5 * (ws.t_start_s[sel] + ws.t_end_s[sel])), a,
+                      b - 1)
+        terrain = np.full(len(sel), None, dtype=object)
+        terrain[held] = tr["terrain"].to_numpy()[mid[held]]
+        unmeasured[sel] = ~held
         out.loc[sel, "slip_1"] = m[:, 0]
         out.loc[sel, "slip_2"] = m[:, 1]
         out.loc[sel, "yaw_rate"] = m[:, 2]
         out.loc[sel, "v_by"] = m[:, 3]
-        out.loc[sel, "terrain"] = labels[mid]
+        out.loc[sel, "terrain"] = terrain
         if track_m is None:
             tracks[sel] = derived_track_m(run.vehicle)
     ch = {c: i for i, c in enumerate(ws.channels)}
@@ -471,7 +510,7 @@ def slip_targets(runs: Sequence[Run], ws: WindowSet, track_m: float | None = Non
     out["chi"] = np.where(turning, dv / (tracks * np.where(turning, yaw, 1.0)), np.nan)
     for c in ("slip_1", "slip_2", "yaw_rate", "chi", "v_by"):
         out[c] = out[c].astype(float)
-    return out
+    return out, unmeasured
 
 
 def terrain_columns(columns: Sequence[str]) -> list[str]:
@@ -514,10 +553,21 @@ def slip_table(runs: Sequence[Run], vehicle, terrains: Sequence[str],
         :func:`slip_targets`.
     meta : pandas.DataFrame, shape (n, 6)
         ``run_id, terrain, scenario, seed, t_start_s, t_end_s``.
+
+    Warns
+    -----
+    DataWarning
+        Windows holding no truth sample (:func:`slip_targets`: no target, no terrain) are
+        left out of the three tables: their count, the first few and their runs.
     """
     runs = list(runs)   # (an iterator was read to its end by the windowing)
     ws = slip_windows(runs, config)
-    Y = slip_targets(runs, ws, vehicle.track_m)
+    Y, unmeasured = _slip_targets(runs, ws, vehicle.track_m)
+    if unmeasured.any():    # no target to learn or score, nor a terrain to give
+        warnings.warn(f"slip_table: {_unmeasured(ws, unmeasured)}; left out of X, Y and meta "
+                      "(no target to learn or score)", DataWarning, stacklevel=2)
+        ws = ws.subset(~unmeasured)
+        Y = Y[~unmeasured].reset_index(drop=True)
     X = slip_features(ws, vehicle, one_hot_probabilities(Y["terrain"], terrains))
     info = {r.run_id: (r.meta.get("scenario", ""), int(r.meta.get("seed", -1))) for r in runs}
     meta = pd.DataFrame({"run_id": ws.run_ids.astype(str), "terrain": Y["terrain"].astype(str),
