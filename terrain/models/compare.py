@@ -31,7 +31,7 @@ import numpy as np
 import pandas as pd
 
 from terrain.errors import (ConfigError, NonFiniteInputError, config_integer, config_positive,
-                            duplicated, refuse_missing)
+                            duplicated, refuse_missing, refuse_mixed_types)
 from terrain.models.cv import block_notes, cross_validate, grouped_units
 from terrain.models.ensemble import capped_at_one, normalised_weights
 from terrain.models.metrics import run_majority_accuracy, window_metrics
@@ -280,6 +280,9 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
         A probability is NaN or infinite (its windows, and the ``k - 1`` after them, would
         all be decided as the first class), a start time not a finite number, or a group
         missing (NaN or None).
+    MixedTypesError
+        Groups of mixed types: text beside numbers (run ``1`` beside run ``"1"``) or
+        booleans beside numbers (:func:`terrain.errors.refuse_mixed_types`).
     """
     # (k = 0 averaged no window: 0/0, every decision the first class, without a word)
     config_integer("history_predictions: k", k, 1)
@@ -287,6 +290,9 @@ def history_predictions(predictions: pd.DataFrame, classes: Sequence[str], k: in
     # windows a run of its own)
     refuse_missing("history_predictions", "group", predictions["group"], "run(s)",
                    "every window needs its run")
+    # (run 1 beside run "1", both shown as 1, were two runs with a history each; True beside
+    # 1 one run; text beside numbers a bare TypeError of the sort)
+    refuse_mixed_types("history_predictions", "group", predictions["group"])
     starts = pd.to_numeric(predictions["t_start_s"], errors="coerce").to_numpy(dtype=float)
     if not np.isfinite(starts).all():
         where = int(np.flatnonzero(~np.isfinite(starts))[0])
