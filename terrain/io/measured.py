@@ -40,6 +40,7 @@ from terrain.errors import (ConfigError, DataFormatError, DataWarning, EmptyFile
                             TimestampError, UnreadableFileError, config_flags, config_integer,
                             duplicated, first_items)
 from terrain.io.align import check_gap_factor, gap_steps
+from terrain.io.jsonfile import json_ready
 from terrain.io.plausibility import (CHANNEL_LIMITS, check_accel_units, check_ranges,
                                      check_rate, check_run)
 from terrain.run import IMU_CHANNELS, TIME, VEHICLE_NAMES, Run
@@ -784,6 +785,10 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         ``t_s`` first, SI units); its ``meta`` holds ``meta_XX.json`` plus the repair, gap and
         skipped-line counts of the readers, and ``warnings``: the files' own findings
         (``file_warnings``, :attr:`ReadReport.warnings`) then those of the run's checks.
+        The keys the reader sets (``repaired``, ``gaps``, ``skipped_lines``,
+        ``ignored_columns``, ``file_warnings``, ``stuck``, ``unused_s``, ``warnings``,
+        ``files``) replace those of ``meta_XX.json``; ``vehicle`` is kept as the file gives
+        it (the run's :attr:`~terrain.run.Run.vehicle` is its lower case).
 
     Raises
     ------
@@ -793,6 +798,15 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
         If ``meta_XX.json`` is not valid JSON or not a JSON object, or its ``vehicle`` is
         not one of :data:`terrain.run.VEHICLE_NAMES` (names the file), or a
         stream file is malformed (raised by :func:`read_stream_csv`).
+
+    Warns
+    -----
+    DataWarning
+        A key of ``meta_XX.json`` that the reader sets itself, whose value in the file
+        differs from the reader's (rule ``meta_keys``): names the file, the key and the
+        value replaced (kept in ``file_warnings`` and ``warnings`` too). A value equal to
+        the reader's, and the ``files`` that :func:`terrain.io.writer.write_run` records
+        (the run's file names), replace nothing and are not warned.
     """
     if "pro" not in files:
         other = next(iter(p for k, p in files.items() if k != "meta"), files.get("meta"))
@@ -839,11 +853,36 @@ def read_run(files: dict[str, Path], run_id: str, dataset: str, terrain: str | N
                        columns={STREAM_NAMES[k]: COLUMN_MAPS[k] for k in files
                                 if k in COLUMN_MAPS})
     checks["warnings"] = file_warnings + checks["warnings"]
+    found = {"repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
+             "ignored_columns": ignored, "file_warnings": list(file_warnings), **checks,
+             "files": {k: str(p) for k, p in files.items()}}
+    # a key of meta_XX.json that the reader sets itself was replaced without a word
+    replaced = _replaced_meta_keys(meta, found, files)
+    for msg in replaced:
+        warnings.warn(msg, DataWarning, stacklevel=2)
+    found["file_warnings"] += replaced
+    found["warnings"] = found["warnings"] + replaced
     return Run(run_id=run_id, dataset=dataset, terrain=terrain, streams=streams,
-               vehicle=vehicle, source=str(files["pro"].parent),
-               meta={**meta, "repaired": repaired, "gaps": gaps, "skipped_lines": skipped,
-                     "ignored_columns": ignored, "file_warnings": list(file_warnings),
-                     **checks, "files": {k: str(p) for k, p in files.items()}})
+               vehicle=vehicle, source=str(files["pro"].parent), meta={**meta, **found})
+
+
+def _replaced_meta_keys(meta: dict, found: dict, files: dict[str, Path]) -> list[str]:
+    """A finding for each key of ``meta_XX.json`` that :func:`read_run` sets itself
+    (``found``: ``repaired``, ``gaps``, ``files``...) and whose value in the file differs
+    from the reader's, which replaces it. A value equal to the reader's (as JSON) loses
+    nothing, nor does the ``files`` that :func:`terrain.io.writer.write_run` records: the
+    names of the run's stream files."""
+    out = []
+    names = {k: Path(p).name for k, p in files.items() if k != "meta"}
+    for key in sorted(set(meta) & set(found)):
+        if meta[key] == json_ready(found[key], None) or (key == "files" and meta[key] == names):
+            continue
+        shown = repr(meta[key])
+        shown = shown if len(shown) <= 80 else shown[:77] + "..."
+        out.append(f"{files['meta']}: rule meta_keys: key {key!r} of the run's metadata is "
+                   f"set by the reader (what it read, repaired and found); the file's value "
+                   f"{shown} is replaced and not kept: rename the key")
+    return out
 
 
 def folder_text(name: str) -> str:
