@@ -94,3 +94,28 @@ def test_a_plausible_run_is_written_and_the_readers_findings_are_theirs_to_warn(
         back = read_folder_run(paths["pro"].parent)
     np.testing.assert_allclose(back.streams["imu"].to_numpy(), run.streams["imu"].to_numpy(),
                                rtol=5e-9)
+
+
+def test_a_simulated_run_with_its_wheel_sides_swapped_is_refused_before_writing(tmp_path):
+    # rule wheel_sides judges the run (check_run): a simulated drive with its left and right
+    # wheel columns exchanged was written, then refused by every reader
+    from terrain.sim.simulate import SimConfig, simulate
+
+    sim = simulate(SimConfig(vehicle="husky", duration_s=20.0, seed=3, scenario="random"))
+    wheels = sim.streams["wheels"]
+    swapped = wheels.rename(columns={"vel_l": "vel_r", "vel_r": "vel_l", "cur_l": "cur_r",
+                                     "cur_r": "cur_l"})[list(wheels.columns)]
+    run = Run(sim.run_id, "sim", sim.terrain, dict(sim.streams, wheels=swapped),
+              vehicle="husky", meta=dict(sim.meta))
+    out = tmp_path / "out"
+    said = _reader_message(run, tmp_path / "by_hand", out)
+    assert "rule wheel_sides" in said
+    with pytest.raises(ConfigError) as refused:
+        write_run(run, out, 0)
+    assert said in str(refused.value)
+    assert not out.exists() or not any(out.rglob("*"))
+    write_run(sim, out, 0)      # the run as simulated is written and reads back
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        back = read_folder_run(out / sim.terrain)
+    assert back.meta["scenario"] == "random"
