@@ -257,15 +257,48 @@ def read_stream_csv(path: str | Path, kind: str, *, max_repair_run: int = 2,
             out[name] = _repair_non_finite(out[name], t, is_gap, path, col, max_repair_run,
                                            report, name, lines)
     frame = pd.DataFrame(out)
-    stream = STREAM_NAMES.get(kind, kind)
-    check_rate(frame[TIME].to_numpy(), stream, path, found=report.warnings)
-    check_ranges(frame, path, mapping, lines)
-    if kind == "imu":
-        # a file in g is refused, a dead sensor warned
-        check_accel_units(frame, path, found=report.warnings)
+    check_stream(frame, kind, path, mapping, lines, report.warnings)
     for msg in report.warnings:
         warnings.warn(msg, DataWarning, stacklevel=2)
     return frame, report
+
+
+def check_stream(frame: pd.DataFrame, kind: str, path, mapping: Mapping[str, str],
+                 lines: np.ndarray | None, found: list[str]) -> None:
+    """The plausibility rules of one stream file (:mod:`terrain.io.plausibility`), as
+    :func:`read_stream_csv` applies them to what it read, and
+    :func:`terrain.io.writer.write_run` to what it would write.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        ``(n_rows, n_columns)`` the stream as read: ``t_s`` first, canonical channel names,
+        SI units (float64 numbers).
+    kind : str
+        File prefix (``imu``, ``pro`` or an extra stream's).
+    path : str or Path
+        The file (for the messages).
+    mapping : Mapping[str, str]
+        Column name in the file -> canonical name (the messages name the file's column).
+    lines : numpy.ndarray or None
+        ``(n_rows,)`` 1-based file line of each row (for the messages).
+    found : list of str
+        Where the findings go (rules ``timestamp_units``, ``accel_units``: a rate outside
+        the nominal range, a dead accelerometer); the caller warns them or not.
+
+    Raises
+    ------
+    UnitError
+        Timestamps certainly not in s (:func:`~terrain.io.plausibility.check_rate`), an
+        accelerometer in g (:func:`~terrain.io.plausibility.check_accel_units`).
+    ImplausibleValueError
+        A value outside its channel's range (:func:`~terrain.io.plausibility.check_ranges`).
+    """
+    check_rate(frame[TIME].to_numpy(), STREAM_NAMES.get(kind, kind), path, found=found)
+    check_ranges(frame, path, mapping, lines)
+    if kind == "imu":
+        # a file in g is refused, a dead sensor warned
+        check_accel_units(frame, path, found=found)
 
 
 def parse_cells(text: pd.Series) -> tuple[np.ndarray, np.ndarray]:

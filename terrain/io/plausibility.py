@@ -526,7 +526,8 @@ def check_rate(t_s: np.ndarray, stream: str, path, time_column: str = "time",
 
 def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
               files: Mapping[str, str], time_column: str = "time",
-              columns: Mapping[str, Mapping[str, str]] | None = None) -> dict:
+              columns: Mapping[str, Mapping[str, str]] | None = None, *,
+              warn: bool = True) -> dict:
     """Apply the clock, unit and stuck-sensor rules to the streams of one run.
 
     Parameters
@@ -547,6 +548,10 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
         stuck-sensor warning (``column 'curL' (wheels.cur_l)``) and the wheel-speed unit
         error name the columns of the file; None: the files use the canonical names (the
         shipped Parquet files, a served request).
+    warn : bool, optional
+        Warn each finding as a :class:`DataWarning` (the readers); False: return them only
+        (:func:`terrain.io.writer.write_run`, which refuses what the readers would refuse and
+        leaves the findings to the readers, who warn them on every read).
 
     Returns
     -------
@@ -589,7 +594,7 @@ def check_run(run_id: str, streams: Mapping[str, pd.DataFrame], vehicle: str,
                      f"value for {total:.1f} s "
                      f"({len(spans)} stretch(es), first from t = {spans[0][0]:.1f} s): dead "
                      "or stuck sensor; windows holding it are flagged")
-    for msg in found:
+    for msg in found if warn else ():
         _warn(msg)
     return {"stuck": stuck, "unused_s": unused, "warnings": found}
 

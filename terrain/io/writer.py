@@ -26,11 +26,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, config_integer, duplicated
+from terrain.errors import ConfigError, DataFormatError, config_integer, duplicated
 from terrain.io.align import first_non_number, missing_cell, real_number
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
-                                 known_vehicle, parse_cells)
+                                 check_stream, known_vehicle, parse_cells)
+from terrain.io.plausibility import check_run
 from terrain.run import TIME, VEHICLE_NAMES, Run
 
 #: Number format of the written CSV files (see the module's note on timestamps).
@@ -401,6 +402,55 @@ def _refuse_non_finite_values(run: Run) -> None:
                     "finite values")
 
 
+def _file_format(frame: pd.DataFrame) -> str | None:
+    """The number format of one file frame (``time`` its clock): :func:`float_format`."""
+    return float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
+
+
+def _as_read(frame: pd.DataFrame, fmt: str | None) -> pd.DataFrame:
+    """A stream as the readers give it back from its file written with ``fmt``: its float
+    columns as ``fmt`` writes them (None: exactly), its other numeric columns as float64,
+    its text columns as they are (the writer's other checks refused every other cell)."""
+    out = {}
+    for c in frame.columns:
+        cells = frame[c]
+        if cells.dtype.kind == "O" and any(isinstance(v, str) for v in cells):
+            out[c] = cells.to_numpy()
+            continue
+        values = cells.to_numpy(dtype=float, na_value=np.nan)
+        if fmt is not None and cells.dtype.kind == "f":
+            values = np.array([float(fmt % v) for v in values], dtype=float)
+        out[c] = values
+    return pd.DataFrame(out)
+
+
+def _refuse_implausible(run: Run, frames: dict[str, pd.DataFrame],
+                        paths: dict[str, Path]) -> None:
+    """ConfigError for a run that the readers' plausibility rules refuse (an IMU in a z-down
+    frame, an accelerometer in g, a value out of its channel's range, clocks that do not
+    overlap...): the readers' own rules (:func:`terrain.io.measured.check_stream` per file,
+    :func:`terrain.io.plausibility.check_run` on the run) applied to the streams as they
+    would be read back from ``paths`` (``frames`` written there in :func:`_file_format`),
+    the message the readers' (their error chained). Their findings (a stuck sensor) are
+    left to the readers, who warn them on every read."""
+    streams = {}
+    try:
+        for (kind, written), (name, frame) in zip(frames.items(), run.streams.items()):
+            streams[name] = _as_read(frame, _file_format(written))
+            mapping = COLUMN_MAPS.get(kind) or {
+                "time": TIME, **{c: c for c in frame.columns if c != TIME}}
+            # (the header is line 1 of the file, row k its line k + 2)
+            check_stream(streams[name], kind, paths[kind], mapping,
+                         np.arange(len(frame)) + 2, found=[])
+        check_run(run.run_id, streams, run.vehicle.lower(),
+                  {name: str(paths[file_kind(name)]) for name in run.streams},
+                  columns={STREAM_NAMES[k]: COLUMN_MAPS[k] for k in paths if k in COLUMN_MAPS},
+                  warn=False)
+    except DataFormatError as exc:
+        raise ConfigError(f"run {run.run_id} would be written to files that the readers "
+                          f"refuse: {exc}") from exc
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -461,7 +511,12 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         durations; not finite, or not increasing strictly: a duplicated or decreasing one),
         or a NaN or infinite value of a numeric channel (pandas' ``NA`` of a nullable
         column and ``None`` among numbers included: the readers interpolate an isolated one
-        and refuse one at the file's edge or in a burst); nothing is written then.
+        and refuse one at the file's edge or in a burst), or streams that the readers'
+        plausibility rules (:mod:`terrain.io.plausibility`) refuse: an IMU in a z-down frame,
+        an accelerometer in g, timestamps certainly not in s, a value outside its channel's
+        range, clocks that do not overlap, a gyro in deg/s, wheel sides swapped, wheel
+        speeds in km/h (the message holds the readers' own, naming the file to be written,
+        column and line; their error is chained as ``__cause__``); nothing is written then.
     OSError
         A file could not be written (a full disk, no permission); as on any failure while
         writing (``KeyboardInterrupt`` included), no file of the run is left: each is
@@ -526,9 +581,11 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     idx = free_index(folder) if index is None else int(index)
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
-    folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
     paths = {kind: folder / f"{kind}_{idx:02d}.csv" for kind in frames}
+    # (an IMU in a z-down frame was written, then refused by every reader)
+    _refuse_implausible(run, frames, paths)
     paths["meta"] = folder / f"meta_{idx:02d}.json"
+    folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
     meta = dict(run.meta)
     # read back as the run's vehicle: not the default, nor a stale "vehicle" of its meta
     meta["vehicle"] = run.vehicle
@@ -542,8 +599,7 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     placed: list[Path] = []
     try:
         for kind, frame in frames.items():
-            fmt = float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
-            frame.to_csv(staged[kind], index=False, float_format=fmt)
+            frame.to_csv(staged[kind], index=False, float_format=_file_format(frame))
         # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"),
         # NaN and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
         staged["meta"].write_text(json.dumps(json_ready(meta, None), indent=2,
