@@ -8,7 +8,9 @@ files written by ``terrain simulate``:
   datasets: columns are always read by name);
 * any other ``<stream>_XX.csv`` (simulator extras such as ``truth_XX.csv``): ``time`` first,
   snake_case channel names, SI units; loaded as stream ``<stream>``;
-* ``meta_XX.json`` (optional): run metadata, e.g. ``{"vehicle": "husky"}``.
+* ``meta_XX.json`` (optional): run metadata, e.g. ``{"vehicle": "husky"}``; a key the
+  reader sets itself (``repaired``, ``gaps``, ``files``..., :func:`read_run`) is replaced by
+  the reader's value, with a :class:`~terrain.errors.DataWarning` where the file's differs.
 
 Validation rules: every problem raises a subclass of :class:`terrain.errors.DataFormatError`
 naming file, column and 1-based file line; the plausibility rules (ranges, units, clocks,
