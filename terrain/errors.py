@@ -686,5 +686,5 @@ class TimeStepError(EstimationError):
 
 
 class MixedTypesError(EstimationError, TypeError):
-    """Labels or runs of types that do not sort together (text beside numbers): a
+    """Labels or runs of types that do not sort together (text or booleans beside numbers): a
     :class:`TypeError` too, as NumPy's own refusal was (:func:`refuse_mixed_types`)."""

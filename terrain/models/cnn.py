@@ -325,8 +325,8 @@ class _WindowCNN(ClassifierMixin, BaseEstimator):
             A label of ``y`` is missing (NaN or None), named by its index; a weight of
             ``sample_weight`` NaN or infinite.
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``y``, or ``groups``
-            with early stopping (:func:`~terrain.models.cv.class_keeping_split`)
+            Values of types that do not sort together (text or booleans beside numbers) in ``y``, or
+            ``groups`` with early stopping (:func:`~terrain.models.cv.class_keeping_split`)
             (:func:`terrain.errors.refuse_mixed_types`).
         """
         with restored_on_failure(self):

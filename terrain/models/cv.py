@@ -333,8 +333,8 @@ def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int
         A missing run (NaN or None) in ``groups``: ``grouped`` made one split unit of every
         such window (NumPy's ``unique`` counts NaN once).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels`` or
+        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     if len(labels) != len(groups):     # scikit-learn's "inconsistent numbers of samples"
         raise ShapeError(f"iter_splits: labels ({len(labels)}) and groups ({len(groups)}) "
@@ -485,8 +485,8 @@ def require_runs(groups, n_splits, purpose: str, setting: str,
     ShapeError
         ``groups`` not 1-D, or (``labels`` given) not of the length of ``labels``.
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``groups`` or ``labels``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``groups`` or
+        ``labels`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     config_integer(setting, n_splits, 2)
     if groups is not None:
@@ -562,8 +562,8 @@ def class_keeping_split(labels, groups, n_splits: int, random_state: int, purpos
     ShapeError
         ``groups`` not 1-D or of another length than ``labels`` (:func:`require_runs`).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
-        (:func:`require_runs`) (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels`` or
+        ``groups`` (:func:`require_runs`) (:func:`terrain.errors.refuse_mixed_types`).
     """
     require_runs(groups, n_splits, purpose, setting, (alternative,), labels)
     # (NumPy's bare "Seed must be between 0 and 2**32 - 1" otherwise)
@@ -796,8 +796,9 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
         If a split unit lands on both sides of a split (an internal invariant; it signals a
         bug, not bad input).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``y``, ``groups`` or
-        ``run_ids`` (1 and "1" were made one class) (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``y``,
+        ``groups`` or ``run_ids`` (1 and "1" were made one class)
+        (:func:`terrain.errors.refuse_mixed_types`).
     """
     from joblib import Parallel, delayed
 

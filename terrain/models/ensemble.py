@@ -245,8 +245,8 @@ class SoftVotingEnsemble(ClassifierMixin, BaseEstimator):
             (unfitted, or its previous fit whole:
             :func:`~terrain.models.cv.restored_on_failure`).
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``y``, or ``groups``
-            when the weights are chosen (:func:`~terrain.models.cv.class_keeping_split`)
+            Values of types that do not sort together (text or booleans beside numbers) in ``y``, or
+            ``groups`` when the weights are chosen (:func:`~terrain.models.cv.class_keeping_split`)
             (:func:`terrain.errors.refuse_mixed_types`).
         """
         with restored_on_failure(self):

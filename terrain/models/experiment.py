@@ -389,7 +389,7 @@ def check_two_classes(labels: np.ndarray, dataset: str, run_ids: np.ndarray) -> 
         One class only in ``labels`` (no window at all is left to the caller, whose
         message says why none was cut).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels``
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels``
         (:func:`terrain.errors.refuse_mixed_types`).
     """
     refuse_mixed_types("check_two_classes", "labels", labels)   # (NumPy's bare TypeError)

@@ -83,8 +83,8 @@ def window_metrics(y_true: Sequence[str], y_pred: Sequence[str],
     NonFiniteInputError
         A missing label (NaN or None) in ``y_true`` or ``y_pred``.
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``y_true`` or ``y_pred``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``y_true`` or
+        ``y_pred`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("window_metrics", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("window_metrics", classes)
@@ -134,8 +134,8 @@ def majority_vote(y_pred: Sequence[str], groups: Sequence[str]) -> pd.Series:
         A group or a prediction is missing (NaN or None: pandas' ``groupby`` would leave its
         windows out of the vote, and out of :func:`run_majority_accuracy`'s count).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``y_pred`` or ``groups``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``y_pred`` or
+        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("majority_vote", y_pred=y_pred, groups=groups)
     frame = pd.DataFrame({"g": np.asarray(groups), "p": np.asarray(y_pred)})
@@ -171,8 +171,8 @@ def run_majority_accuracy(y_true: Sequence[str], y_pred: Sequence[str],
     NonFiniteInputError
         A missing label or group (:func:`majority_vote`).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``y_true``, ``y_pred`` or
-        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``y_true``,
+        ``y_pred`` or ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("run_majority_accuracy", y_true=y_true, y_pred=y_pred, groups=groups)
     truth = pd.Series(np.asarray(y_true), index=np.asarray(groups))
@@ -209,8 +209,8 @@ def confusion(y_true: Sequence[str], y_pred: Sequence[str],
     NonFiniteInputError
         A missing label (NaN or None) in ``y_true`` or ``y_pred``.
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``y_true`` or ``y_pred``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``y_true`` or
+        ``y_pred`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     _check_windows("confusion", y_true=y_true, y_pred=y_pred)
     classes = _check_classes("confusion", classes)

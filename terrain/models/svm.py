@@ -154,8 +154,9 @@ class GroupedSearch(GridSearchCV):
             included (the message names the runs), or every class with fewer windows than
             inner folds.
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``y`` or ``groups``
-            (:func:`~terrain.models.cv.require_runs`) (:func:`terrain.errors.refuse_mixed_types`).
+            Values of types that do not sort together (text or booleans beside numbers) in ``y`` or
+            ``groups`` (:func:`~terrain.models.cv.require_runs`)
+            (:func:`terrain.errors.refuse_mixed_types`).
         """
         require_runs(params.get("groups"), self.cv.get_n_splits(),
                      "the grouped hyperparameter search", "SVMConfig.inner_splits",
@@ -393,7 +394,7 @@ class SVMPipeline(CompiledPipeline):
             training window, or every class with fewer windows than the calibration's
             folds (:func:`check_calibration_classes`).
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``y``
+            Values of types that do not sort together (text or booleans beside numbers) in ``y``
             (:func:`terrain.errors.refuse_mixed_types`).
         """
         if y is not None:   # (scikit-learn's bare "Unknown label type: unknown")

@@ -51,8 +51,8 @@ def run_shares(labels, groups) -> np.ndarray:
         :func:`terrain.errors.refuse_missing`); the message names the argument and the
         first window.
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels`` or
+        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     labels, groups = np.asarray(labels), np.asarray(groups)
     if labels.ndim != 1 or labels.shape != groups.shape:
@@ -98,8 +98,8 @@ def within_class_run_weights(labels, groups) -> np.ndarray:
     NonFiniteInputError
         A label or run is missing (NaN or None, :func:`run_shares`).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
-        (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels`` or
+        ``groups`` (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
     """
     share = run_shares(labels, groups)
     _, inverse, per_class = np.unique(np.asarray(labels), return_inverse=True,
@@ -200,8 +200,8 @@ class RunBalancedClassifier(ClassifierMixin, BaseEstimator):
         NonFiniteInputError
             A label or run is missing (NaN or None, :func:`run_shares`).
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``y`` or ``groups``
-            (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
+            Values of types that do not sort together (text or booleans beside numbers) in ``y`` or
+            ``groups`` (:func:`run_shares`) (:func:`terrain.errors.refuse_mixed_types`).
         """
         if groups is None:
             raise ConfigError("run-balanced weights need the run of every window (groups)")

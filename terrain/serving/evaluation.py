@@ -76,8 +76,8 @@ def grouped_oof_proba(make_model: Callable[[int], object], F: np.ndarray, labels
     Raises
     ------
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``labels`` or ``groups``
-        (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``labels`` or
+        ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
     """
     for name, values in (("labels", labels), ("groups", groups)):
         refuse_mixed_types("grouped_oof_proba", name, values)   # (NumPy's bare TypeError)
@@ -119,7 +119,7 @@ def smooth_runs(proba: np.ndarray, run_ids: np.ndarray, t_s: np.ndarray, hop_s: 
     Raises
     ------
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``run_ids``
+        Values of types that do not sort together (text or booleans beside numbers) in ``run_ids``
         (:func:`terrain.errors.refuse_mixed_types`).
     """
     refuse_mixed_types("smooth_runs", "run_ids", run_ids)   # (NumPy's bare TypeError)

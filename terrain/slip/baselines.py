@@ -63,7 +63,7 @@ def fit_pitch_slip(pitch_rad: np.ndarray, slip: np.ndarray, terrains: Sequence[s
         Booleans (or values that are not numbers) given for the pitch or the slip (a mask
         was fitted as pitches or slips of 0 and 1).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``terrains``
+        Values of types that do not sort together (text or booleans beside numbers) in ``terrains``
         (:func:`terrain.errors.refuse_mixed_types`).
 
     Warns

@@ -637,8 +637,8 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
         ``terrains`` not ``(n,)``, with ``n`` the windows of ``X`` (bare numpy errors
         before).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``run_ids`` or
-        ``terrains`` (:func:`terrain.errors.refuse_mixed_types`).
+        Values of types that do not sort together (text or booleans beside numbers) in ``run_ids``
+        or ``terrains`` (:func:`terrain.errors.refuse_mixed_types`).
     MissingColumnError
         ``X`` lacks a feature column above (named; a bare pandas KeyError before).
 
@@ -754,7 +754,7 @@ def leave_one_out(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarr
     NonFiniteInputError
         A missing group (NaN or None) (:func:`terrain.errors.refuse_missing`).
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``groups``
+        Values of types that do not sort together (text or booleans beside numbers) in ``groups``
         (:func:`terrain.errors.refuse_mixed_types`).
     """
     n = len(X)

@@ -144,8 +144,8 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             not learned, :meth:`predict` gives their median (1 without any) on every window;
             or too few runs in ``groups`` for the calibration folds (no std).
         MixedTypesError
-            Values of types that do not sort together (text beside numbers) in ``groups``
-            (:func:`terrain.errors.refuse_mixed_types`).
+            Values of types that do not sort together (text or booleans beside numbers) in
+            ``groups`` (:func:`terrain.errors.refuse_mixed_types`).
         """
         # a fit that fails (scikit-learn refusing an empty table, a calibration fold) leaves
         # the model as it was: it was half refitted, n_features_in_ new and its trees old
@@ -468,7 +468,7 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     ConfigError
         ``n_folds`` below 2 or above the number of runs.
     MixedTypesError
-        Values of types that do not sort together (text beside numbers) in ``groups``
+        Values of types that do not sort together (text or booleans beside numbers) in ``groups``
         (:func:`terrain.errors.refuse_mixed_types`).
     """
     refuse_mixed_types("calibration_folds", "groups", groups)   # (NumPy's bare TypeError)
