@@ -483,8 +483,12 @@ def _normalise(probabilities: Mapping[str, np.ndarray | float], n: int,
         raise ConfigError("terrain probabilities must be finite and >= 0")
     p = np.where(p >= min_p, p, 0.0)
     total = p.sum(axis=1, keepdims=True)
-    if np.any(total <= 0):
-        raise ConfigError("terrain probabilities sum to 0 on some rows")
+    if np.any(total <= 0):      # (it said "sum to 0" of rows summing to 0.0006)
+        rows = np.flatnonzero(total[:, 0] <= 0)
+        raise ConfigError(f"terrain probabilities: {rows.size} row(s) (first {rows[0]}) hold "
+                          f"no terrain probability >= min_probability {min_p:g} (the "
+                          "probabilities below it are dropped as noise): give each row the "
+                          "classifier's probabilities, which sum to 1")
     p = p / total
     return {k: p[:, i] for i, k in enumerate(names) if np.any(p[:, i] > 0)}
 
@@ -542,8 +546,9 @@ def physics_slip(vehicle, terrain_probabilities: Mapping[str, np.ndarray | float
     Raises
     ------
     ConfigError
-        Unknown terrain name or invalid probabilities; ``n_averaged`` not > 0 (0, negative
-        or NaN: the current noise would be NaN).
+        Unknown terrain name or invalid probabilities (negative, not finite, or a row
+        without any at or above ``settings.min_probability``, naming the first such row);
+        ``n_averaged`` not > 0 (0, negative or NaN: the current noise would be NaN).
     ShapeError
         Inconsistent shapes: ``current_a`` and ``rim_speed_m_s`` not one ``(n, m)`` shape,
         ``pitch_rad`` not ``(n,)``, or ``pitch_std_rad``, ``n_averaged``, a terrain

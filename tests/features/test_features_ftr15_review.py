@@ -398,7 +398,9 @@ def test_a_feature_is_the_same_whatever_the_channel_order(n_windows, n_samples, 
             np.testing.assert_allclose(b[name], a[name], rtol=1e-12, atol=1e-12,
                                        err_msg=name)
     S = _slip_windows(rng, n_windows, n_samples)
-    probs = {"ICE": rng.uniform(0.0, 1.0, n_windows)}
+    # (a weight of the one terrain; below min_probability, 0.001, it is refused as no
+    # terrain at all: a draw below it failed this test in a local run, seed 3395)
+    probs = {"ICE": rng.uniform(0.01, 1.0, n_windows)}
     names, F = slip_feature_matrix(S, SLIP_CHANNELS, rate, HUSKY, probs)
     order = list(data.draw(st.permutations(range(len(SLIP_CHANNELS)))))
     shuffled = tuple(SLIP_CHANNELS[i] for i in order)

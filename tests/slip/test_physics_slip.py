@@ -262,6 +262,7 @@ def test_run_pitch_prior_makes_the_load_std_match_its_spread_on_level_ground_and
         run_pitch_prior(np.full(2, np.nan), np.ones(2))
 
 
+@pytest.mark.slow
 def test_noisy_pitch_no_longer_biases_the_physics_slip_on_snow():
     # planted: the exact drive of a steady SNOW window, pitch read with 0.06 rad of noise
     rng = np.random.default_rng(6)
@@ -416,6 +417,16 @@ def test_terrains_below_the_minimum_probability_are_dropped():
     mixed = physics_slip(HUSKY, {"SNOW": 0.9995, "ICE": 0.0005}, cur, rim, np.zeros(1))
     np.testing.assert_array_equal(mixed.slip, snow.slip)
     np.testing.assert_array_equal(mixed.std, snow.std)
+
+
+def test_a_row_without_any_terrain_at_the_minimum_probability_is_refused_naming_it():
+    """Every probability of a row below ``min_probability`` (0.1 %) leaves it no terrain:
+    refused naming the row and the floor (the message said "sum to 0" of a row summing to
+    0.0006)."""
+    cur = np.array([[10.0, 10.0]] * 3)
+    rim = np.array([[0.5, 0.5]] * 3)
+    with pytest.raises(ConfigError, match=r"1 row\(s\) \(first 2\).*min_probability 0.001"):
+        physics_slip(HUSKY, {"ICE": np.array([0.5, 1.0, 0.0006])}, cur, rim, np.zeros(3))
 
 
 def test_interval_of_a_terrain_mixture_covers_each_terrains_slip():
