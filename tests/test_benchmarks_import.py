@@ -199,6 +199,7 @@ def test_cnn_device_takes_auto_and_torch_device_strings():
         "auto", "cpu", "cuda:1"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("terrain, named", [("GRASS", "with an IMU on GRASS (they are on"),
                                             ("FOO", "unknown terrain 'FOO'")])
 def test_speed_bound_refuses_a_measured_terrain_without_runs(terrain, named, monkeypatch,
@@ -219,6 +220,7 @@ def test_speed_bound_refuses_a_measured_terrain_without_runs(terrain, named, mon
     assert "argument --measured-terrains" in err and named in err
 
 
+@pytest.mark.slow
 def test_speed_bound_takes_a_measured_terrain_in_any_case(monkeypatch):
     path = SCRIPTS[[p.stem for p in SCRIPTS].index("speed_bound")]
     spec = importlib.util.spec_from_file_location("benchmark_speed_bound_case", path)

@@ -56,6 +56,7 @@ def _code_values() -> dict[str, float]:
     return values
 
 
+@pytest.mark.slow
 def test_the_constant_pattern_reads_the_docs_examples():
     text = "`LONG_REQUEST_ROWS` = 10,000 rows and `StreamConfig.max_backlog_s` (60 s)"
     assert STATED.findall(text) == [("LONG_REQUEST_ROWS", "10,000"),

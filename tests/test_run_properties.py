@@ -55,6 +55,7 @@ def test_times_out_of_order_does_not_depend_on_the_clock_origin(t, shift, strict
     assert times_out_of_order(shifted, strict).tolist() == times_out_of_order(t, strict).tolist()
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(st.sets(EIGHTHS, min_size=1, max_size=15), st.data())
 def test_a_subset_of_increasing_times_is_in_order(times, data):
@@ -69,6 +70,7 @@ def test_a_subset_of_increasing_times_is_in_order(times, data):
     assert times_out_of_order(doubled, strict=False).size == 0
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.sets(EIGHTHS, min_size=1, max_size=10), st.lists(EIGHTHS, max_size=10),
        st.booleans())

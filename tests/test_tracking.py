@@ -26,6 +26,7 @@ def closed_port() -> int:
         return sock.getsockname()[1]
 
 
+@pytest.mark.slow
 def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     monkeypatch.delenv("MLFLOW_TRACKING_URI", raising=False)
@@ -50,6 +51,7 @@ def test_embedded_store_lives_in_the_working_directory(tmp_path, monkeypatch, ca
     assert run.run_id in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_a_run_opened_inside_a_callers_active_run_is_its_child(tmp_path, monkeypatch):
     # inside a caller's active run, the run was a sibling (no parent tag) and not active:
     # fluent calls in the block (model logging) landed in the caller's run
@@ -74,6 +76,7 @@ def test_a_run_opened_inside_a_callers_active_run_is_its_child(tmp_path, monkeyp
     assert "fluent" not in client.get_run(outer).data.params
 
 
+@pytest.mark.slow
 def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
     # the tag was overwritten by each call: a pipeline logging its metrics in a loop kept
     # only the last call's skipped names ("b"), and "a" was lost without a trace
@@ -88,6 +91,7 @@ def test_non_finite_metrics_of_every_call_stay_listed(tmp_path, monkeypatch):
     assert logged.data.metrics == {"ok": 1.0, "ok2": 2.0}
 
 
+@pytest.mark.slow
 def test_metric_values_that_are_not_numbers_are_refused_by_name(tmp_path, monkeypatch):
     # text was logged through float ('0.5' -> 0.5, a column read as text unnoticed) and None
     # was Python's bare TypeError from float()
@@ -104,6 +108,7 @@ def test_metric_values_that_are_not_numbers_are_refused_by_name(tmp_path, monkey
     assert logged.data.metrics == {"f32": 0.25, "flag": 1.0, "n": 3.0}
 
 
+@pytest.mark.slow
 def test_a_table_is_logged_as_csv_under_a_csv_name_only(tmp_path, monkeypatch):
     # log_table writes CSV whatever the name: `terrain control-grid` logged its tuning and
     # comparison tables as CSV text in files named tuning_husky.json and comparison.json
@@ -120,6 +125,7 @@ def test_a_table_is_logged_as_csv_under_a_csv_name_only(tmp_path, monkeypatch):
     assert pd.read_csv(root / "tuning.csv").equals(table)
 
 
+@pytest.mark.slow
 def test_a_logged_dict_is_strict_json_with_undefined_figures_null(tmp_path, monkeypatch):
     # MLflow writes a dict with json.dumps' defaults: a NaN figure (the recall of a class
     # without a window in cv_report.json) became the bare token NaN that jq and JSON.parse
@@ -140,6 +146,7 @@ def test_a_logged_dict_is_strict_json_with_undefined_figures_null(tmp_path, monk
         "recall": {"SNOW": None, "ICE": 0.123456789}, "delays_s": [1.5, None], "n": 3}
 
 
+@pytest.mark.slow
 def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     other = tmp_path / "elsewhere.db"
     monkeypatch.setenv("MLFLOW_TRACKING_URI", f"sqlite:///{other}")
@@ -150,6 +157,7 @@ def test_environment_variable_selects_another_store(tmp_path, monkeypatch):
     assert other.exists() and not (tmp_path / "mlflow.db").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("caller_run", [False, True])
 def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypatch,
                                                              caller_run):
@@ -182,6 +190,7 @@ def test_a_model_is_never_logged_to_a_run_other_than_its_own(tmp_path, monkeypat
     assert other.search_experiments(filter_string="name = 'terrain-test'") == []
 
 
+@pytest.mark.slow
 def test_a_sqlite_store_named_by_the_environment_keeps_its_artifacts_beside_it(
         tmp_path, monkeypatch):
     # the README's recipe (train in one folder, then from another folder
@@ -269,6 +278,7 @@ def test_a_store_that_keeps_nothing_is_refused_before_any_run(tmp_path, monkeypa
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.slow
 def test_a_server_that_answers_any_status_passes_the_check():
     # a proxy or an MLflow server without /health: answering is enough, MLflow says the rest
     class NotFound(http.server.BaseHTTPRequestHandler):
@@ -312,6 +322,7 @@ def test_a_registry_model_on_a_server_that_does_not_answer_is_one_line_at_once(
     assert "does not answer" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_the_slip_model_lookup_loads_the_latest_version_and_leaves_mlflow_as_it_was(
         tmp_path, monkeypatch):
     # the lookup used to set MLflow's process-wide tracking and registry URIs (the latter
@@ -343,6 +354,7 @@ def test_the_slip_model_lookup_loads_the_latest_version_and_leaves_mlflow_as_it_
     assert mlflow.get_tracking_uri() == before
 
 
+@pytest.mark.slow
 def test_processes_that_open_a_new_store_together_all_log_their_run(tmp_path):
     """MLflow creates and migrates a new SQLite store without guarding against another
     process doing the same: two `terrain train` started together in a fresh folder failed
@@ -396,6 +408,7 @@ def test_a_store_lock_held_too_long_is_a_one_line_config_error(tmp_path, monkeyp
         pass
 
 
+@pytest.mark.slow
 def test_a_store_lock_held_briefly_is_waited_for(tmp_path):
     """Another process opening the store holds its lock for a moment: the second opening
     waits for it (up to STORE_LOCK_TIMEOUT_S, 300 s), it does not fail."""
@@ -423,6 +436,7 @@ def test_a_store_lock_held_briefly_is_waited_for(tmp_path):
     assert 0.2 < waited < 10
 
 
+@pytest.mark.slow
 def test_a_server_that_takes_the_connection_but_never_answers_is_refused_after_5_s():
     """README: a server that does not answer within 5 s is a one-line error (a closed port
     is refused at once, so only a silent server exercises the wait)."""
@@ -460,6 +474,7 @@ def test_the_store_check_opens_the_database_a_query_names(tmp_path):
     assert sorted(p.name for p in tmp_path.iterdir()) == ["mlflow.db"]
 
 
+@pytest.mark.slow
 def test_a_table_name_with_a_folder_is_logged_in_that_folder(tmp_path, monkeypatch):
     # log_table wrote the CSV to <tmp>/<name> without the folder existing: 'tables/x.csv'
     # raised a bare FileNotFoundError, where log_figure takes 'figures/x.png'
@@ -472,6 +487,7 @@ def test_a_table_name_with_a_folder_is_logged_in_that_folder(tmp_path, monkeypat
     assert pd.read_csv(root / "tables" / "tuning.csv").equals(table)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("fluent", [True, False])
 def test_a_run_whose_block_raises_ends_failed_and_not_active(tmp_path, monkeypatch, fluent):
     """A pipeline that fails inside its run leaves it ``FAILED`` (not ``FINISHED`` or
@@ -496,6 +512,7 @@ def test_a_run_whose_block_raises_ends_failed_and_not_active(tmp_path, monkeypat
     assert mlflow.MlflowClient(tracking_uri=mine).get_run(run.run_id).info.status == "FAILED"
 
 
+@pytest.mark.slow
 def test_a_run_on_a_store_other_than_mlflows_ends_finished(tmp_path, monkeypatch):
     """The client-only path (the run's store is not MLflow's process-wide one, so the run
     is not MLflow's active run) ends a block that returns ``FINISHED``, as the fluent path
@@ -548,6 +565,7 @@ def test_code_version_is_the_commit_marked_dirty_by_modified_tracked_files(
     assert code_version() == f"terrain-{terrain.__version__}"
 
 
+@pytest.mark.slow
 def test_a_run_that_cannot_become_active_is_not_left_running(tmp_path, monkeypatch):
     """The caller chose another experiment (``mlflow.set_experiment``): MLflow refuses to make
     a run of ``terrain-test`` active. The run created for it ends ``FAILED``; it was left
@@ -572,6 +590,7 @@ def test_a_run_that_cannot_become_active_is_not_left_running(tmp_path, monkeypat
     assert run.info.status == "FAILED"
 
 
+@pytest.mark.slow
 def test_metrics_logged_at_steps_keep_their_steps(tmp_path, monkeypatch):
     """A curve logged step by step (``terrain control-grid``'s tuning costs) keeps each
     value at its step; without a step the value is at step 0."""
@@ -635,6 +654,7 @@ def test_a_deleted_experiment_is_refused_by_name_with_its_remedy():
     assert _experiment_id(Client(), "terrain-cv", uri) == "3"
 
 
+@pytest.mark.slow
 def test_an_integer_metric_beyond_the_float_range_is_skipped_as_non_finite(tmp_path,
                                                                            monkeypatch):
     # float(10**400) raised Python's bare OverflowError out of log_metrics, and nothing of
@@ -671,6 +691,7 @@ sys.exit(cli.main(["slow"]))
 '''
 
 
+@pytest.mark.slow
 def test_a_command_stopped_by_sigterm_ends_its_run_failed_in_one_line(tmp_path):
     # SIGTERM (kill, timeout, a job scheduler) ended the process where it stood: the run
     # stayed RUNNING in the store for ever and the command said nothing

@@ -54,6 +54,7 @@ def _runs(experiment="terrain-test"):
             for r in client.search_runs([exp.experiment_id])}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("error", [RuntimeError("fit failed"), KeyboardInterrupt(),
                                    SystemExit(3), GeneratorExit()])
 def test_a_block_that_raises_anything_ends_its_run_failed(store, error):

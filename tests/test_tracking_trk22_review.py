@@ -22,6 +22,7 @@ def _runs(name):
     return [] if exp is None else client.search_runs([exp.experiment_id])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("where", ["tags", "params"])
 def test_a_caller_code_version_is_refused_before_any_run(store, where):
     # tags={"code_version": "mine"} tagged the run 'mine' while its code_version parameter
@@ -33,6 +34,7 @@ def test_a_caller_code_version_is_refused_before_any_run(store, where):
     assert _runs("trk22-cv") == []
 
 
+@pytest.mark.slow
 def test_tag_and_param_code_version_agree(store):
     with tracked_run("trk22-ok", announce=False, tags={"note": "x"},
                      params={"alpha": 1}) as run:
@@ -43,6 +45,7 @@ def test_tag_and_param_code_version_agree(store):
     assert logged.data.tags["note"] == "x" and logged.data.params["alpha"] == "1"
 
 
+@pytest.mark.slow
 def test_non_finite_metrics_beyond_the_tag_limit_are_all_listed(store):
     # 600 non-finite metrics listed 20,000 characters: MLflow cut the tag to 8,000 (a name
     # cut in half at its end, the rest lost) and a later call merged that cut name back
@@ -69,6 +72,7 @@ def test_non_finite_metrics_beyond_the_tag_limit_are_all_listed(store):
     assert logged.data.metrics == {"ok": 1.0}
 
 
+@pytest.mark.slow
 def test_a_second_handle_on_the_run_keeps_the_names_the_tag_lists(store):
     # the names of earlier calls come from the tag, not only from the handle's memory
     from terrain.tracking import TrackedRun
@@ -81,6 +85,7 @@ def test_a_second_handle_on_the_run_keeps_the_names_the_tag_lists(store):
     assert tags["non_finite_metrics"] == "a,b"
 
 
+@pytest.mark.slow
 def test_a_parameter_longer_than_mlflow_keeps_is_kept_whole_in_a_file(store):
     # a 6,999-character value was cut to 6,000 by MLflow with only a log warning: the run's
     # parameter was not the value it ran with, and nothing said so in the run

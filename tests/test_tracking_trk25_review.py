@@ -54,6 +54,7 @@ def _together(*jobs):
     assert not errors, errors
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("handles", ["one", "two"])
 def test_non_finite_metrics_logged_by_two_threads_are_all_listed(store, monkeypatch, handles):
     # the tag is read, merged and written back: a thread that wrote a list made before the
@@ -108,6 +109,7 @@ def test_activating_a_store_named_by_the_environment_keeps_it(tmp_path, monkeypa
         mlflow.set_tracking_uri(previous)
 
 
+@pytest.mark.slow
 def test_an_experiment_created_by_another_process_meanwhile_is_used(tmp_path, monkeypatch):
     # a store that is not locked (a tracking server): two commands started together both
     # found no experiment and both created it; the second got MLflow's "already exists"

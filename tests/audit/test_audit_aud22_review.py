@@ -88,6 +88,7 @@ def test_the_reported_signal_errors_are_those_of_the_scored_samples():
                     for t in ("ASPHALT", "ICE", "all")}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("shift_s", [1234.5])
 def test_the_report_does_not_depend_on_the_clocks_origin(shift_s):
     from terrain.audit.timing import LagTrack
@@ -157,6 +158,7 @@ def test_the_markdown_signal_table_states_the_jsons_numbers():
         assert cells[2] == _fmt(rec.get("ideal_rmse")), rec
 
 
+@pytest.mark.slow
 def test_the_whole_report_does_not_depend_on_the_order_of_the_runs():
     # the audited-run list, the lag table (and the figures drawn over result.frames, e.g.
     # the yaw figure's sample draw) followed the caller's order

@@ -111,6 +111,7 @@ def _wheel_run(t0_s, duration_s=60.0, rate_hz=16.0):
     return Run(run_id="x/ASPHALT/00", dataset="x", terrain="ASPHALT", streams={"wheels": wheels})
 
 
+@pytest.mark.slow
 def test_a_replay_on_an_epoch_clock_is_the_replay_near_zero():
     """The replay integrated on ``t0 + k dt`` rounded at the clock's magnitude: at 1.7e9 s
     the physics step (read from the grid's first two times) was 0.005 s +- 1.1e-7, so the

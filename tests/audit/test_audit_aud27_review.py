@@ -20,6 +20,7 @@ def asphalt_run():
                               duration_s=30.0, seed=1))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("label", ["asphalt", "Asphalt"])
 def test_the_friction_sweep_takes_a_run_labelled_in_another_case(asphalt_run, label):
     """A run read from a folder ``asphalt/`` carries the label ``asphalt``; the replay takes
@@ -48,6 +49,7 @@ def _on_clock(run, origin_s):
     return replace(run, streams=streams)
 
 
+@pytest.mark.slow
 def test_the_lag_figure_plots_time_in_run_on_an_epoch_clock(asphalt_run):
     """fig_lags' x axis reads 'time in run (s)'; the lag track's window centres are times of
     the wheel clock, which a recorder's epoch clock puts at 1.7e9 s: that run was drawn at
@@ -72,6 +74,7 @@ def test_the_lag_figure_plots_time_in_run_on_an_epoch_clock(asphalt_run):
         np.testing.assert_allclose(x, want, atol=1e-6)
 
 
+@pytest.mark.slow
 def test_the_replay_commands_the_twist_the_simulators_kinematics_turn_back_into_its_speeds(
         asphalt_run, monkeypatch):
     """The replay feeds the simulator a body twist made from the measured side speeds; the
@@ -112,6 +115,7 @@ def test_the_replay_commands_the_twist_the_simulators_kinematics_turn_back_into_
     assert np.all(rep.yaw_rate[turning & (rel > 3)] > 0)
 
 
+@pytest.mark.slow
 def test_the_current_ceilings_side_speeds_are_the_measured_sides(asphalt_run):
     """The current ceiling's regressor |v_side| is rebuilt from the frame's commanded speed
     and yaw rate (skid_steer_forward of the measured sides): side 0 is the left wheel's
@@ -154,6 +158,7 @@ def test_the_coulomb_turning_form_is_the_simulators_planted_turning_current():
     np.testing.assert_allclose(extra, np.column_stack([term, term]), rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_the_replay_and_the_frame_filter_at_the_runs_own_stream_rates(asphalt_run,
                                                                       monkeypatch):
     """The wheel input low-pass (input_cutoff_hz) and the IMU low-pass run at the streams'
@@ -181,6 +186,7 @@ def test_the_replay_and_the_frame_filter_at_the_runs_own_stream_rates(asphalt_ru
     assert rates[0] == run.rate_hz("imu")                 # wz, ax, ay
 
 
+@pytest.mark.slow
 def test_the_sweeps_replayed_chi_is_taken_on_the_samples_of_the_measured_chi(asphalt_run):
     """Two paths, one answer: at factor 1 the sweep replays the catalogue terrain, so its
     chi is the replay's chi on the samples the measured chi (chi_pooled) is taken on."""
@@ -199,6 +205,7 @@ def test_the_sweeps_replayed_chi_is_taken_on_the_samples_of_the_measured_chi(asp
     assert got == pytest.approx(want, rel=1e-9)
 
 
+@pytest.mark.slow
 def test_the_replay_runs_the_physics_at_the_simulators_default_rate(asphalt_run, monkeypatch):
     """ReplaySettings' default physics rate is the simulator's (SimConfig's, read there, not
     written twice): the baseline is the simulator as it runs by default, and a simulated run

@@ -108,6 +108,7 @@ def test_the_plants_cover_the_vocabulary():
     assert set(PLANTED) == set(EFFECT_NAMES)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("name", sorted(PLANTED))
 @PROPS
 @given(data=st.data())
@@ -136,6 +137,7 @@ def test_nothing_planted_names_nothing(group, seed):
     assert res.selected == ()
 
 
+@pytest.mark.slow
 @PROPS
 @given(seed=st.integers(0, 10_000), perm=st.permutations(range(N_UNITS)),
        name=st.sampled_from(sorted(PLANTED)))
@@ -205,6 +207,7 @@ def test_the_gain_interval_is_reproducible_and_bounds_the_resampled_gains(n, see
     assert ci1[0] - 1e-12 <= g1 <= ci1[1] + 1e-12      # the interval holds the estimate
 
 
+@pytest.mark.slow
 @settings(max_examples=4, deadline=None)
 @given(seed=st.integers(0, 10_000), sel_seed=st.integers(0, 2 ** 32 - 1),
        name=st.sampled_from(sorted(PLANTED)))
@@ -224,6 +227,7 @@ def test_a_selection_is_reproducible_with_its_seed(seed, sel_seed, name):
             assert lo - 1e-12 <= e.heldout_gain <= hi + 1e-12, (e.name, e.heldout_gain, lo, hi)
 
 
+@pytest.mark.slow
 @PROPS
 @given(seed=st.integers(0, 10_000), name=st.sampled_from(sorted(PLANTED)))
 def test_the_group_rmses_are_the_pooled_held_out_errors(seed, name):
@@ -270,6 +274,7 @@ def test_the_residual_statistics_are_numpy_s(data, n):
 SIGNAL_FIELDS = {"signal", "terrain", "n", "replay_rmse", "extended_rmse"}
 
 
+@pytest.mark.slow
 @settings(max_examples=2, deadline=None)
 @given(seed=st.integers(0, 10_000), name=st.sampled_from(sorted(PLANTED)))
 def test_the_signals_records_keep_their_fields_and_their_meaning(seed, name):
@@ -312,6 +317,7 @@ def _ceiling_frames(seed: int, chis, offsets, prefix: str):
             for i, (c, o) in enumerate(zip(chis, offsets))]
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None)
 @given(seed=st.integers(0, 10_000),
        chis=st.lists(st.floats(1.0, 3.0), min_size=4, max_size=4),
@@ -349,6 +355,7 @@ def _report_summary(frames):
     return effects, signals, report["supported"], report["facts"]
 
 
+@pytest.mark.slow
 def test_the_audit_report_does_not_depend_on_run_order_or_names():
     frames = _frames(7, "icr_expansion", 1.8, n=3) + [
         replace(f, run_id=f"ice/{f.run_id}", group=f"ice/{f.group}", terrain="ICE")
@@ -389,6 +396,7 @@ def test_a_mirrored_drive_names_the_same_effects_with_mirrored_sizes(seed, name)
             assert eb.heldout_gain == pytest.approx(ea.heldout_gain, rel=1e-6, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_a_held_out_segments_gyro_does_not_move_its_folds_training_data(tmp_path):
     from audit_helpers import simulated_streams, write_signal_files
     from terrain.audit.frames import prepare_frame, split_frame
@@ -412,6 +420,7 @@ def test_a_held_out_segments_gyro_does_not_move_its_folds_training_data(tmp_path
         np.testing.assert_array_equal(a.wz[a.score_imu], b.wz[b.score_imu])
 
 
+@pytest.mark.slow
 def test_replay_rmse_is_the_default_physics_replay(tmp_path):
     """The ``replay_rmse`` of the JSON ``signals`` records (read by independent checks) is
     the error of the simulator's default physics (v1), with the audit's and the command's

@@ -149,6 +149,7 @@ def test_the_learned_transfer_refuses_runs_of_another_terrain():
     assert set(out.run_id) == {"s/ASPHALT/2"}
 
 
+@pytest.mark.slow
 def test_the_friction_sweep_replays_the_runs_the_audit_audited_only():
     # a run whose gyro holds a NaN is skipped by the audit (its measured chi is not in the
     # facts), but its wheels replay: the sweep replayed it beside the audited run and set

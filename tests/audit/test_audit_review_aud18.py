@@ -168,6 +168,7 @@ def test_a_mirrored_drive_has_the_same_manoeuvres(data, n, track):
                                   classify_manoeuvres(-x, v, vr, vl, track))
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None)
 @given(seed=st.integers(0, 10_000), perm_seed=st.integers(0, 10_000))
 def test_the_residual_statistics_do_not_depend_on_row_order(seed, perm_seed):

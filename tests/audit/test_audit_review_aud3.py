@@ -49,6 +49,7 @@ def test_wheel_times_out_of_order_are_refused_naming_the_row(repeat):
     assert not frames and "wheels" in skipped["x/ASPHALT/00"]
 
 
+@pytest.mark.slow
 def test_imu_times_out_of_order_are_refused_naming_the_row():
     # the IMU is low-passed and read by np.interp at the lagged wheel times: a record whose
     # clock goes back gave gyro values from the wrong time, scored as if measured
@@ -67,6 +68,7 @@ def test_imu_times_out_of_order_are_refused_naming_the_row():
     assert prepare_frame(ok, replay_run(ok)).has_imu
 
 
+@pytest.mark.slow
 def test_the_gyro_is_read_at_t_minus_the_lag_of_a_late_wheel_stream():
     # timing convention (terrain.audit.timing): lag > 0 = wheel stream late, a wheel sample
     # stamped t describes the robot at IMU time t - lag; the frame must read the gyro there
@@ -133,6 +135,7 @@ def _turning_run(run_id: str) -> Run:
                streams={"wheels": pro, "imu": imu}, vehicle="husky")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("spoil", ["nan", "missing", "order"])
 def test_the_friction_sweep_leaves_out_a_run_the_audit_skips(spoil):
     # run_audit lists a run it cannot replay as skipped; the what-if sweep then replayed the
@@ -160,6 +163,7 @@ def test_the_friction_sweep_leaves_out_a_run_the_audit_skips(spoil):
     assert "x/ASPHALT/01" in res.skipped and list(res.sweep.n_runs) == [1]
 
 
+@pytest.mark.slow
 def test_the_replay_is_sampled_on_the_wheel_clock_without_a_delay():
     # the replay's outputs are sampled at the wheel timestamps: the replayed yaw rate must
     # follow the commanded one without a shift beyond the body's own response time
@@ -177,6 +181,7 @@ def test_the_replay_is_sampled_on_the_wheel_clock_without_a_delay():
     assert abs(lag) < 0.08
 
 
+@pytest.mark.slow
 def test_imu_samples_are_scored_edge_s_inside_the_overlap_on_the_wheel_clock_too():
     # FrameSettings.edge_s: samples closer than edge_s to either end of the overlap of both
     # streams are not scored. With an early wheel stream (lag < 0) the gyro is read at

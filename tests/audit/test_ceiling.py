@@ -198,6 +198,7 @@ def test_learned_transfer_finds_a_planted_history_effect_the_steady_family_misse
         _row(steady, "spin").rmse_reference)
 
 
+@pytest.mark.slow
 def test_learned_transfer_ignores_last_place_differences_of_the_replay(monkeypatch):
     # two builds of the same physics differ in the last places of their replays (a compiled
     # kernel's floating-point order); the learned transfer must not split on that noise

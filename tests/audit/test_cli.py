@@ -31,6 +31,7 @@ def _args(runs_dir, out, *extra):
             "--bootstrap", "200", "--param-bootstrap", "20", *extra]
 
 
+@pytest.mark.slow
 def test_cli_writes_json_and_markdown(runs_dir, tmp_path, capsys):
     assert cli_main(_args(runs_dir, tmp_path, "--no-mlflow")) == 0
     report = json.loads((tmp_path / "a.json").read_text())
@@ -58,6 +59,7 @@ def test_cli_writes_json_and_markdown(runs_dir, tmp_path, capsys):
     assert "ASPHALT: gyro_bias" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 def test_cli_logs_to_mlflow(runs_dir, tmp_path, monkeypatch):
     mlflow = pytest.importorskip("mlflow")
     monkeypatch.chdir(tmp_path)
@@ -87,6 +89,7 @@ def test_cli_bad_input_exits_2(tmp_path, capsys):
     assert "no run could be audited" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("flag, value, message", [
     ("--min-gain", "nan", "argument --min-gain: must be a fraction of the baseline RMSE in "
                           "[0, 1), got nan"),
@@ -105,6 +108,7 @@ def test_cli_refuses_settings_that_would_change_the_answer_silently(runs_dir, tm
     assert not (tmp_path / "a.json").exists()
 
 
+@pytest.mark.slow
 def test_cli_names_a_replay_low_pass_clipped_below_the_asked_cut_off(runs_dir, tmp_path,
                                                                      capsys):
     # 1000 Hz asks for no smoothing of the 6.5 Hz wheel record; the filter is clipped to
@@ -171,6 +175,7 @@ def _strict_json(text: str):
     return json.loads(text, parse_constant=refuse)
 
 
+@pytest.mark.slow
 def test_cli_physics_comparison_of_a_one_run_terrain_is_strict_json(tmp_path):
     # one run: its gain has no run-bootstrap interval (gain_lo/gain_hi NaN in the table);
     # the records skipped json_ready and went out as bare NaN (before: 96 NaN in this file,
@@ -188,6 +193,7 @@ def test_cli_physics_comparison_of_a_one_run_terrain_is_strict_json(tmp_path):
     assert all(isinstance(r["gain"], float) for r in records)
 
 
+@pytest.mark.slow
 def test_cli_physics_comparison_shows_the_runs_it_skipped(tmp_path, monkeypatch, capsys):
     # a run whose v2 replay fails (v1, the audited physics, replays it) was dropped from the
     # comparison's table with no word: per_run_errors returned it and the pipeline threw it
@@ -232,6 +238,7 @@ def test_report_json_refuses_non_finite_numbers():
             report_json({"records": [{"gain_lo": bad}]})
 
 
+@pytest.mark.slow
 def test_cli_with_progress_reports_the_replay_time(tmp_path):
     # with the progress bar (the default) the runs were replayed before run_audit, which was
     # given the frames and timed nothing: every committed report said replay_s 0.0

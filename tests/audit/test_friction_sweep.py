@@ -40,6 +40,7 @@ def _turning_at_the_end(run: Run, last_s: float) -> Run:
     return replace(run, streams={**run.streams, "wheels": wheels})
 
 
+@pytest.mark.slow
 def test_replayed_chi_rises_with_the_lateral_friction(sandy_run):
     table = lateral_friction_sweep([sandy_run], "SANDY_LOAM", FACTORS, measured_chi=1.7)
     base = get_terrain("SANDY_LOAM").lateral_friction
@@ -49,6 +50,7 @@ def test_replayed_chi_rises_with_the_lateral_friction(sandy_run):
     assert chi[0] >= 1.0 and np.all(np.diff(chi) > 0), chi
 
 
+@pytest.mark.slow
 def test_samples_within_the_edge_of_either_end_are_not_scored(sandy_run):
     settings = AuditSettings()
     assert settings.frames.edge_s == 2.0
@@ -62,6 +64,7 @@ def test_samples_within_the_edge_of_either_end_are_not_scored(sandy_run):
     assert abs(longer.replay_chi[0] - as_run.replay_chi[0]) > 0.05
 
 
+@pytest.mark.slow
 def test_runs_of_other_terrains_or_without_turns_are_not_replayed(sandy_run):
     other = replace(sandy_run, terrain="SNOW")
     straight = sandy_run.streams["wheels"].copy()

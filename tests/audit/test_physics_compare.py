@@ -17,6 +17,7 @@ def loam_runs(shipped_borealtc):
     return sorted(runs, key=lambda r: r.run_id)[:3]
 
 
+@pytest.mark.slow
 def test_same_version_gives_zero_gain(loam_runs):
     s = PhysicsComparisonSettings(reference="v1", candidate="v1", n_bootstrap=50)
     tab, skipped = per_run_errors(loam_runs[:1], s)
@@ -28,6 +29,7 @@ def test_same_version_gives_zero_gain(loam_runs):
     np.testing.assert_array_equal(g.gain.to_numpy(), 0.0)
 
 
+@pytest.mark.slow
 def test_v2_cuts_the_sandy_loam_yaw_error(loam_runs):
     s = PhysicsComparisonSettings(n_bootstrap=200)
     tab, _ = per_run_errors(loam_runs, s)
@@ -42,6 +44,7 @@ def test_v2_cuts_the_sandy_loam_yaw_error(loam_runs):
     assert "| SANDY_LOAM | wz | moving |" in md
 
 
+@pytest.mark.slow
 def test_replay_physics_is_selectable_and_checked(loam_runs):
     run = max(loam_runs, key=lambda r: float(np.abs(r.streams["wheels"].vel_r
                                                     - r.streams["wheels"].vel_l).max()))

@@ -40,12 +40,14 @@ def _param(result, name, key):
     return result.effect(name, TERRAIN).params[key]
 
 
+@pytest.mark.slow
 def test_unmodified_runs_show_the_known_effects(real_base):
     assert "icr_expansion" in real_base.supported(TERRAIN)
     assert 1.3 < _param(real_base, "icr_expansion", "chi") < 1.8
     assert _param(real_base, "current_offset", "offset_a") > 0.5
 
 
+@pytest.mark.slow
 def test_planted_gyro_bias_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         imu["wz"] = imu.wz + 0.02
@@ -57,6 +59,7 @@ def test_planted_gyro_bias_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     assert "gyro_bias" in result.supported(TERRAIN)
 
 
+@pytest.mark.slow
 def test_planted_wheel_lag_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         pro["time"] = pro.time + 0.5                 # wheel data stamped 0.5 s late
@@ -74,6 +77,7 @@ def test_planted_wheel_lag_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     assert np.allclose(shifts, 0.5, atol=0.15), shifts
 
 
+@pytest.mark.slow
 def test_planted_current_offset_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         pro["curR"] = pro.curR + 1.0
@@ -87,6 +91,7 @@ def test_planted_current_offset_on_real_runs(audit_tmp, shipped_borealtc, real_b
         real_base.effect("current_offset", TERRAIN).details["offset_left_a"], abs=0.1)
 
 
+@pytest.mark.slow
 def test_planted_immobilised_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     # the robot digs in for the middle 60 % of every turn longer than 3 s: the gyro shows no
     # yaw there (IMU clock = wheel clock - the run's own lag, from the unmodified audit)
@@ -116,6 +121,7 @@ def test_planted_immobilised_on_real_runs(audit_tmp, shipped_borealtc, real_base
     assert delta == pytest.approx(expected, abs=0.1)
 
 
+@pytest.mark.slow
 def test_planted_grade_resistance_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         phase = rng.uniform(0, 2 * np.pi)
@@ -135,6 +141,7 @@ def test_planted_grade_resistance_on_real_runs(audit_tmp, shipped_borealtc, real
     assert delta == pytest.approx(10.0, abs=3.0)
 
 
+@pytest.mark.slow
 def test_planted_turning_resistance_on_real_runs(audit_tmp, shipped_borealtc, real_base):
     def modify(imu, pro, rng, i):
         x = np.abs(pro.velR - pro.velL) / B

@@ -65,6 +65,7 @@ def test_planted_effect_is_named_with_its_magnitude(audit_tmp, name, effects, mo
         assert e.params[k] == pytest.approx(v, abs=tol), (name, e.params)
 
 
+@pytest.mark.slow
 def test_planted_icr_expansion_relative_to_null(audit_tmp, sim_null):
     null, _ = sim_null
     result = _audit_planted(audit_tmp, "sim_icr", {"icr_expansion": 1.5})
@@ -76,6 +77,7 @@ def test_planted_icr_expansion_relative_to_null(audit_tmp, sim_null):
     assert result.effect("icr_expansion", TERRAIN).heldout_gain > 0.5
 
 
+@pytest.mark.slow
 def test_planted_turning_resistance_relative_to_null(audit_tmp, sim_null):
     null, _ = sim_null
     result = _audit_planted(audit_tmp, "sim_turning", {"turning_resistance": 2.0})

@@ -41,6 +41,7 @@ def sim_run():
     return res, _run(res["imu"], res["pro"])
 
 
+@pytest.mark.slow
 def test_replay_reproduces_the_simulator(sim_run):
     """Replaying a simulated run's own wheel speeds gives back its yaw rate and currents."""
     res, run = sim_run
@@ -92,6 +93,7 @@ def test_a_stream_without_its_columns_is_skipped_with_a_typed_error():
     assert not frames and "wz" in skipped["t/ASPHALT/00"]
 
 
+@pytest.mark.slow
 def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
     # a 0.57 m/s cruise recorded at 15 Hz whose every 4th sample reads about half (the
     # pattern of the Vulpi wheel-speed record, e.g. vulpi/CONCRETE/1: 0.57 0.57 0.57 0.29
@@ -120,6 +122,7 @@ def test_input_lowpass_removes_the_noise_a_replay_rectifies_into_current():
         ReplaySettings(input_cutoff_hz=0.0)
 
 
+@pytest.mark.slow
 def test_a_short_imu_stream_is_used_when_filterable_and_warned_about_otherwise(sim_run):
     """An IMU stream of 30 samples or fewer was dropped without a word (``len(imu) > 30``):
     the run was audited as one without IMU. The code after needs more samples than the
@@ -165,6 +168,7 @@ def _frame_with(run_streams, wz_of, cur_extra=None):
     return prepare_frame(run, replay_run(run))
 
 
+@pytest.mark.slow
 def test_fit_yaw_recovers_chi_and_bias():
     streams = simulated_streams(seeds=(41,))[0]
     frame = _frame_with(streams, lambda x: x / 1.6 + 0.01)
@@ -176,6 +180,7 @@ def test_fit_yaw_recovers_chi_and_bias():
         fit_yaw([frame], ["gyro_bias"], EffectSettings(min_quiet_samples=10 ** 6))
 
 
+@pytest.mark.slow
 def test_fit_current_recovers_offsets_and_turning_term():
     streams = simulated_streams(seeds=(42,))[0]
     settings = EffectSettings()
@@ -215,6 +220,7 @@ def _hills_frame(streams, level_a=0.0, offsets_a=(0.0, 0.0), k_a_per_rad=10.0):
     return _frame_with((imu, pro), lambda x: x, extra)
 
 
+@pytest.mark.slow
 def test_fit_current_grade_is_not_a_level():
     """|pitch| is never negative: a grade fitted through the origin reports any level of the
     moving currents as a grade (1.5 A over mean |pitch| ~ 0.1 rad: +15 A/rad)."""
@@ -227,6 +233,7 @@ def test_fit_current_grade_is_not_a_level():
     assert abs(flat.k_a_per_rad) < 1.5
 
 
+@pytest.mark.slow
 def test_fit_current_alternation_converges_with_offsets_and_grade():
     """Offsets (median over straight samples) and the grade (least squares over moving
     samples) share the straight samples; the fit must be their common fixed point (three
@@ -249,6 +256,7 @@ def test_fit_current_alternation_converges_with_offsets_and_grade():
     assert abs(short.k_a_per_rad - p.k_a_per_rad) > 1.0
 
 
+@pytest.mark.slow
 def test_fit_current_grade_takes_only_runs_with_a_pitch():
     """A run without an IMU has no pitch estimate (its pitch is 0 as a placeholder): its
     rows in the grade's least squares said "level ground" while its currents climbed the
@@ -265,6 +273,7 @@ def test_fit_current_grade_takes_only_runs_with_a_pitch():
     assert k == pytest.approx(alone, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_fit_current_offsets_beside_a_grade_take_only_runs_with_a_pitch():
     """With ``current_offset`` beside the grade, the offsets (medians of straight driving)
     took the straight rows of a run without an IMU, whose pitch 0 is a placeholder: its
@@ -292,6 +301,7 @@ def test_fit_current_offsets_beside_a_grade_take_only_runs_with_a_pitch():
     assert both.n_straight > fit_current([frames[0]], ["current_offset"]).n_straight
 
 
+@pytest.mark.slow
 def test_fit_current_grade_leaves_out_samples_outside_the_imu_record():
     """Past the IMU's last stamp (and before its first) the pitch was read from the filtered
     accelerometer held at its end value, and those samples entered the grade fit as if
@@ -323,6 +333,7 @@ def test_fit_current_grade_leaves_out_samples_outside_the_imu_record():
     assert fit_current([frame], ["current_offset"]).n_outside_imu == 0
 
 
+@pytest.mark.slow
 def test_pitch_estimate_ignores_the_replay_start_transient(shipped_borealtc):
     """The replay starts from rest, so its first step accelerates at the friction limit
     (+-7.5 m/s^2 on ASPHALT); low-passed with the rest, it read as up to 0.29 rad of pitch on
@@ -424,6 +435,7 @@ def test_forward_selection_takes_the_best_supported_candidate(monkeypatch):
     assert not any(selection.is_supported(t, settings) for t in path.final_round.values())
 
 
+@pytest.mark.slow
 def test_gain_vs_ideal_is_scored_on_the_effects_own_samples(sim_null):
     # icr_expansion is scored on turning samples and the report prints its gain vs ideal
     # drive beside 'scored on turning samples'; that gain was computed on every scored
@@ -455,6 +467,7 @@ def test_gain_vs_ideal_is_scored_on_the_effects_own_samples(sim_null):
     assert g.reference_rmse["ideal"] == pytest.approx(np.sqrt(s / n), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_make_units_cuts_few_runs_into_segments(sim_run):
     _, run = sim_run
     frame = prepare_frame(run, replay_run(run))
@@ -466,6 +479,7 @@ def test_make_units_cuts_few_runs_into_segments(sim_run):
     assert not segmented and len(units) == 5
 
 
+@pytest.mark.slow
 def test_segments_carry_their_own_lag_and_the_held_out_one_stays_out(sim_run):
     # one run cut in two halves; the gyro of the second half is read 0.8 s late. The fold
     # that leaves that half out must fit the same lag whatever its gyro does. Before, every
@@ -506,6 +520,7 @@ def test_segments_carry_their_own_lag_and_the_held_out_one_stays_out(sim_run):
     assert fits[0] == fits[1] == pytest.approx(0.0, abs=0.01)
 
 
+@pytest.mark.slow
 def test_jittery_wheel_records_are_told_apart_from_clean_ones(shipped_borealtc):
     # every shipped Vulpi record carries the every-4th-sample dropout, no BorealTC one does
     boreal = [cruise_wheel_acceleration_rms(r) for r in shipped_borealtc.values()]
@@ -929,6 +944,7 @@ def test_a_turning_resistance_fitted_below_zero_gets_its_own_cause():
         EFFECT_VOCABULARY["gyro_bias"].cause
 
 
+@pytest.mark.slow
 def test_the_gyro_is_read_on_the_runs_own_clock_and_the_edges_are_not_scored(sim_run):
     """IMU stamps 0.5 s early against the wheels (wheel data late): the frame reads the gyro
     at ``t - lag`` and matches the replay there far better than on raw timestamps; the first

@@ -39,6 +39,7 @@ def test_a_non_finite_wheel_sample_is_refused_naming_the_run_and_column(column):
     assert np.isfinite(replay_run(_run(_pro())).cur).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("column", ["wz", "ax", "t_s"])
 def test_a_non_finite_imu_sample_is_refused_naming_the_run_and_column(column):
     # one NaN gyro sample went through the zero-phase low-pass, which spreads it over the
@@ -99,6 +100,7 @@ def test_a_nose_up_pitch_reads_positive_and_only_within_the_imu_record():
     assert f.has_pitch[f.t_s >= 4.0].all()
 
 
+@pytest.mark.slow
 def test_the_replays_start_from_rest_does_not_lean_on_the_pitch():
     # a record that starts at cruising speed: the replay accelerates from rest at its first
     # steps (7.5 m/s^2), the level IMU reads nothing. Low-passed over the whole record, that
@@ -119,6 +121,7 @@ def test_the_replays_start_from_rest_does_not_lean_on_the_pitch():
     assert np.abs(f.pitch[f.score_cur]).max() < 1e-3
 
 
+@pytest.mark.slow
 def test_sides_one_speed_step_apart_are_replayed_at_their_mean():
     # a quantised record (BorealTC: steps of 0.2/25.4 m/s) cruising with the sides rounded
     # to neighbouring steps (63 and 64): the difference carries no information, both sides

@@ -125,6 +125,7 @@ def test_settings_are_recorded_flat_with_tuples_joined():
     assert AuditSettings().as_params()["sweep_factors"] == ""
 
 
+@pytest.mark.slow
 def test_the_json_report_lists_scopes_support_segments_and_skipped_runs():
     """Four ASPHALT runs with a planted gyro bias and current offsets and one SNOW run with
     nothing planted, pooled: every scope (``all`` included) is listed in ``supported``, SNOW

@@ -93,6 +93,7 @@ def test_measured_facts_of_synthetic_runs():
     assert facts["runs_with_identifiable_lag"] == 0 and facts["lag_min_s"] is None
 
 
+@pytest.mark.slow
 def test_runs_are_pooled_only_across_several_terrains():
     from dataclasses import replace
 

@@ -72,6 +72,7 @@ def test_the_audit_changes_no_process_wide_state(audited):
     assert filters_after == filters
 
 
+@pytest.mark.slow
 def test_the_same_frames_audited_again_give_the_same_report(audited):
     frames, _, _, result, _, _ = audited
     again = run_audit([], SETTINGS, frames=frames, skipped={"zz": "no wheel stream"})
@@ -92,6 +93,7 @@ def test_a_report_changed_by_its_reader_leaves_the_result_as_it_was(audited):
     assert _report(result) == before
 
 
+@pytest.mark.slow
 def test_the_figures_leave_matplotlib_as_it_was(audited):
     import matplotlib
     import matplotlib.pyplot as plt

@@ -77,6 +77,7 @@ def test_averaged_imu_block_holds_eleven_samples_at_100_hz_on_any_clock(t0):
     assert stds[10] == pytest.approx(0.8 / np.sqrt(11), rel=1e-12)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("t0", [EPOCH_S, EPOCH_S + 0.007, 1.23456789e9])
 def test_fused_observer_takes_a_pseudo_measurement_every_period_on_any_clock(t0):
     """FusedSlipObserver: a pseudo-measurement "every period_s" (0.2 s: every 10th call at

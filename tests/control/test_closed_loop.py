@@ -78,6 +78,7 @@ def test_stale_estimate_gives_no_correction():
                                   simulate_with_physics(cfg).physics.omega_cmd)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle,estimator", [("agrimaro", None), ("husky", "observer")])
 def test_traction_control_cuts_slip_on_ice_same_seed(vehicle, estimator):
     off = run_closed_loop(vehicle, "ICE", "straight_accel", False, 3, duration_s=5.0,
@@ -247,6 +248,7 @@ def test_engaged_feed_forward_still_slows_a_spinning_wheel():
     np.testing.assert_allclose(1.0 / r + c, limit, rtol=1e-9)
 
 
+@pytest.mark.slow
 def test_time_to_speed_is_timed_against_one_reference_for_on_and_off():
     """AgriMaRo on SNOW with the terrain decided TILES: the controller holds the wheels at
     TILES's 0.1 traction limit and the robot creeps. Timed against each run's own final

@@ -55,6 +55,7 @@ def test_tuned_gains_do_not_depend_on_the_order_of_the_grids(kp, ki, data):
 TIED = ("SNOW", "SANDY_LOAM", "GRASS", "GRAVEL")   # traction target 0.30 each (the cap)
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(classes=st.permutations(TIED + ("DIRT_ROAD", "PLOUGHED")),
        size=st.integers(2, 6))

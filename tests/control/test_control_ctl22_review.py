@@ -91,6 +91,7 @@ def test_replay_makes_every_call_of_the_span_on_any_clock(t0, seconds):
         assert np.all(c.wheels[:, 0] <= c.t_s) and np.all(c.imu[:, 0] <= c.t_s)
 
 
+@pytest.mark.slow
 def test_replay_keeps_the_call_count_of_the_shipped_runs():
     """The slack of the call count changes nothing on the shipped BorealTC runs (stamped
     from 0 s: 1 ns there, as the 1e-9 periods before, to well within a period): the same
@@ -122,6 +123,7 @@ def _saturate(cfg, seconds, dt=0.2):
     return out, state
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("one_sided", [True, False])
 def test_an_hour_saturated_winds_the_integral_up_no_further_than_a_minute(one_sided):
     """Conditional integration: while the output sits at its limit the integral holds the
@@ -213,6 +215,7 @@ _TUNE = ("from terrain.control.grid import tune_gains; "
          "seeds=[1000]); print(repr(best)); print(table.to_json(double_precision=15))")
 
 
+@pytest.mark.slow
 def test_tuning_is_reproducible_in_a_fresh_process_with_another_hash_seed():
     """tune_gains on the same seeds: the same best gains and the same table, bit for bit,
     in this process and in a fresh one with another PYTHONHASHSEED (no set or dict order of

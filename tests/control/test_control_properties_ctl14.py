@@ -90,6 +90,7 @@ def test_integral_stays_within_the_room_of_the_output(cfg, targets, seq):
         assert abs(state.integral[0]) <= limit + 1e-9
 
 
+@pytest.mark.slow
 @FAST
 @given(st.floats(10.0, 100.0), st.floats(1.0, 50.0), st.integers(50, 2000),
        st.floats(0.05, 0.3), st.booleans())
@@ -217,6 +218,7 @@ def test_resuming_from_the_returned_state_equals_one_run(cfg, targets, seq, cut)
         np.testing.assert_array_equal(f1, f2)
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(st.lists(st.sampled_from(sorted(TERRAIN_NAMES)), min_size=1, max_size=6, unique=True),
        st.floats(0.5, 0.99), st.floats(0.0, 0.04), st.floats(0.05, 0.95),

@@ -419,6 +419,7 @@ def _same(got, want):
         assert float(got) == pytest.approx(want, rel=1e-9)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(st.lists(st.tuples(st.sampled_from(["ICE", "SNOW"]), st.integers(0, 4), run_metrics,
                           run_metrics), min_size=1, max_size=8,
@@ -461,6 +462,7 @@ def test_compare_equals_a_per_cell_brute_force(cells):
 
 # --- the closed loop on the simulator -----------------------------------------------------
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None)
 @given(st.sampled_from(["husky", "agrimaro"]), st.sampled_from(sorted(TERRAIN_NAMES)),
        st.sampled_from(["straight_accel", "slope_turn"]), st.booleans(), st.integers(0, 50))

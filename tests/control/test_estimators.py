@@ -36,6 +36,7 @@ def _replayed_slip_error(terrain, kind, duration=6.0, seed=0):
     return float(np.sqrt(np.mean(np.square(err)))), getattr(est, "pseudo_count", None)
 
 
+@pytest.mark.slow
 def test_fused_estimator_with_currents_beats_the_interim_observer_in_steady_driving():
     """Issue 10's fused slip (physics-slip pseudo-measurement from the motor currents) on the
     replayed sensors: on ICE the steady slip is ~0.005 and the fused estimate finds it; the
@@ -51,6 +52,7 @@ def test_fused_estimator_with_currents_beats_the_interim_observer_in_steady_driv
     assert fused_sn < 0.02 and observer_sn > 0.1
 
 
+@pytest.mark.slow
 def test_on_the_vibrating_imu_the_fused_estimate_needs_its_gyro_only():
     """The loop's simplified IMU (no vibration band, no gravity) does not exist on a robot.
     Fed the full IMU, the fused estimate's accelerometer rows take the snow's vibration for
@@ -134,6 +136,7 @@ def _replay_measured(run, settings):
     return np.array(speeds), est, rim
 
 
+@pytest.mark.slow
 def test_online_fused_observer_holds_the_speed_within_what_the_rims_allow(borealtc_runs):
     """The online observer applies the batch estimate's speed bound (docs/slip_learning.md):
     on BorealTC SNOW/02, replayed sample by sample, the rims never pass 0.06 m/s but the
@@ -158,6 +161,7 @@ def test_online_fused_observer_holds_the_speed_within_what_the_rims_allow(boreal
     assert "no speed bound" in est_free.limits
 
 
+@pytest.mark.slow
 def test_the_online_speed_bound_moves_only_the_speed_and_the_slips(borealtc_runs):
     """BorealTC SNOW/20 through the online observer: where the estimate ran off (the
     acceleration state at ~30 m/s^2) a projection in the full covariance metric also moved
@@ -201,6 +205,7 @@ def _agrimaro_on_vibrating_imu(view, seconds=20.0, vib_std=3.0, pole=0.39, seed=
     return est, np.array(acc[n // 2:]), np.array(block_var[n // 2:])
 
 
+@pytest.mark.slow
 def test_averaged_accelerometer_rows_measure_the_coloured_noise_of_a_block_mean():
     """A block mean of coloured noise varies more than white noise of the same std would
     make it: for first-order noise of std 3 m/s^2 and pole 0.39, the 11-sample block mean
@@ -221,6 +226,7 @@ def test_averaged_accelerometer_rows_measure_the_coloured_noise_of_a_block_mean(
     assert rms["gyro"] < rms["averaged"] < 0.5 * rms["full"], rms
 
 
+@pytest.mark.slow
 def test_agrimaro_gyro_view_hands_the_controller_the_slope_of_its_speed(monkeypatch):
     """AgriMaRo on GRASS, gyro view (the default), controller on: the filter's acceleration
     state is biased by the slipping wheels' zero-slip rows (+0.14 m/s^2 mean while cruising

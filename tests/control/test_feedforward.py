@@ -86,6 +86,7 @@ def test_a_command_exactly_at_its_limit_does_not_engage_it():
     np.testing.assert_allclose(nxt.v_ref_m_s, [1.5])        # not held to 1.0 + a_max dt
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle,estimator,terrains", [
     ("husky", "fused", ("SNOW", "ICE", "GRASS", "TILES")),
     ("husky", "observer", ("SNOW", "ICE")),
@@ -102,6 +103,7 @@ def test_control_never_raises_the_peak_slip(vehicle, estimator, terrains):
             assert on["peak_slip"] <= off["peak_slip"] + 1e-9, (terrain, seed)
 
 
+@pytest.mark.slow
 def test_feedforward_cuts_the_start_up_slip_on_ice():
     """The feedback alone sees the start-up slip late (estimator lag); the feed-forward
     limit does not need to see it."""

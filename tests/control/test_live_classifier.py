@@ -27,6 +27,7 @@ def husky_classifier(tmp_path_factory):
     return cache, path, info
 
 
+@pytest.mark.slow
 def test_sim_classifier_is_trained_once_and_cached(husky_classifier):
     cache, path, info = husky_classifier
     assert (path / "MLmodel").exists() and not info["cached"]
@@ -49,6 +50,7 @@ def test_sim_classifier_is_trained_once_and_cached(husky_classifier):
     assert again == path and info2["cached"]
 
 
+@pytest.mark.slow
 def test_cache_key_follows_the_controller_of_the_training_runs(tmp_path):
     """Everything that changes the closed-loop training runs changes the cached model:
     gains, estimator, feed-forward, controlled runs or not; the defaults spelled out hit the
@@ -94,6 +96,7 @@ def _feed(model, observations):
     return live
 
 
+@pytest.mark.slow
 def test_live_decision_at_t_uses_only_samples_taken_by_t(husky_classifier):
     """Causality: two sample streams equal up to 4 s (SNOW) and different after (ICE) give
     the same decision at every time up to 4 s, and different ones once the later samples
@@ -112,6 +115,7 @@ def test_live_decision_at_t_uses_only_samples_taken_by_t(husky_classifier):
     assert a.n_windows == 9                           # 2.0, 2.5, ..., 6.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("terrain", TERRAINS)
 def test_live_sim_decisions_drive_the_loop_and_are_scored(husky_classifier, terrain):
     cache, path, _ = husky_classifier
@@ -137,6 +141,7 @@ def test_live_sim_decisions_drive_the_loop_and_are_scored(husky_classifier, terr
     assert 0.5 < m["terrain_accuracy"] < 1.0
 
 
+@pytest.mark.slow
 def test_live_terrain_and_a_decision_function_exclude_each_other(husky_classifier):
     _, path, _ = husky_classifier
     live = LiveClassifier(load_stream_model(path), "husky")
@@ -152,6 +157,7 @@ def test_label_source_has_no_classifier():
         decision_source("model", "husky", ["ICE"], [0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle", ["husky", "agrimaro"])
 def test_undecided_loop_limits_the_start_up_on_the_fallbacks_terrain(vehicle):
     from terrain.control import build_slip_table

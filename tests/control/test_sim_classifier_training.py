@@ -21,6 +21,7 @@ TERRAINS = ("SNOW", "ICE")
 FAST = dict(seeds=(2000,), scenarios=("straight_accel",), duration_s=4.0)
 
 
+@pytest.mark.slow
 def test_the_controlled_training_runs_use_the_given_controller(tmp_path, monkeypatch):
     calls = []
     real = control_classifier.run_closed_loop
@@ -40,6 +41,7 @@ def test_the_controlled_training_runs_use_the_given_controller(tmp_path, monkeyp
                             feed_forward=False)
 
 
+@pytest.mark.slow
 def test_a_cached_model_without_its_training_record_is_trained_again(tmp_path):
     path, info = sim_classifier("husky", TERRAINS, cache_dir=tmp_path, **FAST)
     record = path.parent / "info.json"
@@ -50,6 +52,7 @@ def test_a_cached_model_without_its_training_record_is_trained_again(tmp_path):
     assert not (path.parent / "model.tmp").exists()        # the staging folder is moved
 
 
+@pytest.mark.slow
 def test_runs_of_another_length_train_another_model(tmp_path):
     path, info = sim_classifier("husky", TERRAINS, cache_dir=tmp_path, **FAST)
     other, info2 = sim_classifier("husky", TERRAINS, cache_dir=tmp_path,

@@ -489,6 +489,7 @@ def test_the_enabling_wheel_speed_follows_the_encoder_resolution():
         encoder_resolution_speed_m_s(agri.motor, 0.165, 0.0)
 
 
+@pytest.mark.slow
 def test_the_agrimaro_controller_no_longer_acts_on_encoder_noise_on_the_slope():
     # 15 deg slope_turn at 0.05-0.2 m/s on TILES: with the thesis's 0.05 m/s threshold the
     # controller raised the slip above 0.05 m/s from 0.034 to 0.479 (seeds 0-2; 0.869 on this

@@ -102,6 +102,7 @@ def test_the_shipped_wheel_only_run_keeps_its_last_wheel_sample():
 
 # -- the hold window of the speed bound: (t - hold_s, t] -------------------------------------
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None)
 @given(t0=st.sampled_from(CLOCKS), rate=st.sampled_from((15.0, 30.0, 50.0, 100.0, 1000.0 / 3)),
        k=st.integers(1, 12), j=st.integers(0, 40))

@@ -44,6 +44,7 @@ def _turning_run(vehicle: str, n: int = 400, rate_hz: float = 100.0) -> Run:
     return Run(f"sim/ASPHALT/{vehicle}", "sim", "ASPHALT", streams, vehicle=vehicle)
 
 
+@pytest.mark.slow
 def test_skid_steer_filter_takes_the_runs_vehicle_track_simulated_tracked_run():
     """A simulated tracked run (track 0.393 m) with a planted ICR expansion: the skid-steer
     EKF, given only the run, estimates the chi that the truth gives (chi_from_truth with the

@@ -165,6 +165,7 @@ def test_slip_model_dir_whose_mlmodel_is_not_yaml_says_so(run_dir, tmp_path, cap
     assert str(folder / "MLmodel") in line and "AttributeError" not in line
 
 
+@pytest.mark.slow
 def test_an_option_of_the_other_vehicle_kind_is_said_not_silently_ignored(run_dir, tmp_path,
                                                                           capsys):
     # --tuning tunes the AgriMaRo EKF, --slip-model the skid-steer one's slip source
@@ -241,6 +242,7 @@ def test_a_run_shorter_than_a_slip_window_names_that_reason(tmp_path, capsys):
     assert "catalogue" not in note and "no slip model is used (none could be used)" in out
 
 
+@pytest.mark.slow
 def test_without_a_slip_model_the_common_slip_is_not_claimed(tmp_path, capsys):
     # a 120 s run on a terrain outside the catalogue (no physics slip): the slip-augmented
     # EKF, left with the accelerometer alone, drifted to slip 0.77 (std 0.003, NIS 7.95 on
@@ -337,6 +339,7 @@ def test_an_agrimaro_run_without_wheel_3_says_so_and_warns_nothing(run_dir, tmp_
     assert "slip_3 none (no finite estimate)" in printed and "(agrimaro)" in printed
 
 
+@pytest.mark.slow
 def test_an_agrimaro_run_without_camera_or_steering_encoders_says_what_rests_on_the_model(
         tmp_path, capsys):
     # without the camera the speed over ground is measured by nothing: the slip of a 20 s

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 from hypothesis import example, given, settings, strategies as st
+import pytest
 
 from terrain.estimation import SensorSamples, run_filter
 from terrain.estimation.skid_steer_slip import (SPEED_BOUND_MOVABLE, SkidSteerSlipModel,
@@ -44,6 +45,7 @@ def _assert_same(seg, whole):
     np.testing.assert_array_equal(seg.dof, whole.dof)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(seed=st.integers(0, 2**32 - 1))
 def test_segments_equal_the_whole_run_on_a_uniform_grid(seed):

@@ -3,6 +3,7 @@ magnitudes (epoch clocks, badly scaled covariances, long runs)."""
 
 import numpy as np
 from hypothesis import given, settings, strategies as st
+import pytest
 
 from terrain.estimation.runner import (SensorSamples, make_grid, sample_steps,
                                        samples_inside)
@@ -108,6 +109,7 @@ def test_one_precise_update_on_the_compiled_loop_stays_positive_semi_definite():
 
 # -- one hour of driving without a position reference ----------------------------------------
 
+@pytest.mark.slow
 def test_an_hour_without_camera_keeps_the_covariance_a_covariance_on_both_engines():
     # one hour at 4 Hz (14 400 steps) with the IMU, wheels and steering but no camera:
     # the position variances grow without bound (to 3.7e3 m^2 in a turn at 0.2 rad/s) while

@@ -24,6 +24,7 @@ def husky_mixed():
                           gyro_bias=0.01)
 
 
+@pytest.mark.slow
 def test_planted_icr_factor_and_gyro_bias_recovered(husky_mixed):
     comp = husky_comparison(husky_mixed)
     # target: within 5 % of truth after 10 s of mixed driving (steady turns)
@@ -40,6 +41,7 @@ def test_planted_icr_factor_and_gyro_bias_recovered(husky_mixed):
     assert icr_chi(res)[-1] == pytest.approx(chi_run, rel=0.08)
 
 
+@pytest.mark.slow
 def test_observer_noise_is_drawn_with_the_runs_own_seed(husky_mixed):
     # every run drew the observer's pose noise with seed 0: the Husky table's "3 seeds" were
     # one noise draw for the observer (identical orchard figures for seeds 3, 4 and 5)
@@ -51,6 +53,7 @@ def test_observer_noise_is_drawn_with_the_runs_own_seed(husky_mixed):
     assert default["ekf_chi_err"] == zero["ekf_chi_err"]     # the EKF sees no pose noise
 
 
+@pytest.mark.slow
 def test_observer_eta_against_truth_on_orchard_rows():
     """Seed 000's use case: constant-speed rows and U-turns (Assumption 1)."""
     result = simulate_husky("ASPHALT", seed=1, duration_s=100.0, scenario="orchard")

@@ -190,6 +190,7 @@ def test_regression_gain_goes_to_zero_when_not_turning():
     assert abs(calc.regression_gain(x / 1.5, x, 0.05)[0]) < 1e-4
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(hnp.arrays(np.float64, st.integers(1, 60),
                   elements=st.floats(-1e6, 1e6, allow_nan=False)),

@@ -37,6 +37,7 @@ def test_signal_sets_keep_the_raw_default_and_add_ekf():
         resolve_signals(["ekf_nonsense"])
 
 
+@pytest.mark.slow
 def test_windows_with_ekf_channels(husky_run):
     config = WindowConfig(window_s=2.0, rate_hz=50.0)
     ws = make_windows([husky_run], "all+ekf", config)
@@ -55,6 +56,7 @@ def test_windows_with_ekf_channels(husky_run):
     assert np.isfinite(fx.transform(ws.X)).all()
 
 
+@pytest.mark.slow
 def test_runs_without_imu_are_skipped_and_gaps_stay_nan(husky_run):
     no_imu = Run("sim/ASPHALT/01", "sim", "ASPHALT", {"wheels": husky_run.streams["wheels"]})
     ws = make_windows([husky_run, no_imu], "ekf", WindowConfig(window_s=2.0, rate_hz=50.0))
@@ -86,6 +88,7 @@ def test_window_channels_equal_the_frame_path_on_each_window(husky_run):
     assert np.isfinite(out).all()
 
 
+@pytest.mark.slow
 def test_window_channels_find_a_planted_icr_expansion_within_a_turning_window():
     run = replace(simulate_husky("ASPHALT", seed=4, duration_s=40.0, icr_expansion=3.0).run,
                   run_id="sim/ASPHALT/03")

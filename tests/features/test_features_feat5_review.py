@@ -54,6 +54,7 @@ def test_band_weights_refuse_a_window_length_that_is_not_a_count(n):
         calc.band_weights(n, 50.0, ((0.0, 5.0),))
 
 
+@pytest.mark.slow
 def test_moving_and_turning_fractions_count_speeds_strictly_above_their_scales():
     """A window driven at exactly the speed scale v0 (yaw rate exactly w0) counts as
     standing (straight): moving__fraction is the share of samples with |v| > v0."""
@@ -153,6 +154,7 @@ def test_a_one_row_frame_gets_nan_ekf_channels_not_a_filter_step():
     pd.testing.assert_frame_equal(out[list(frame.columns)], frame)
 
 
+@pytest.mark.slow
 def test_slip_model_outputs_are_stamped_at_the_window_centres(tmp_path):
     """Each output's t_s is the centre of its 2 s window (the time a window mean
     describes, documented), one hop (1 s) apart: start + 1 s, not the window start."""
@@ -192,6 +194,7 @@ def test_wheel_physics_fit_refuses_windows_without_a_sample():
         == (2, len(PHYSICS_FEATURES))
 
 
+@pytest.mark.slow
 def test_the_phys_columns_are_the_physics_slip_of_the_window_means(tmp_path):
     """phys_slip_l/_r and phys_std are terrain.slip.physics.physics_slip of the window
     means with the wheel angular acceleration vel_mean__slope / r_w (rad/s^2) and the

@@ -84,6 +84,7 @@ def test_runs_of_several_vehicles_take_the_default_track_whatever_the_order(monk
     assert windows.runs_track_m([]) == windows.HUSKY_TRACK_M and asked == [None]
 
 
+@pytest.mark.slow
 def test_serial_feature_union_hands_parallel_settings_to_feature_union(monkeypatch):
     """n_jobs asking for parallel work goes through FeatureUnion.transform (joblib), as the
     docstring says; n_jobs None or 1 stays serial. (Dropping the n_jobs test survived: both

@@ -43,6 +43,7 @@ def _frames(draw):
     return frame, config
 
 
+@pytest.mark.slow
 @given(_frames())
 @settings(max_examples=200, deadline=None)
 def test_every_sample_of_a_frame_is_in_a_window_position_or_a_counted_tail(case):
@@ -105,6 +106,7 @@ def _by_run(ws):
             for rid in set(ws.run_ids)}
 
 
+@pytest.mark.slow
 @given(st.lists(st.tuples(st.floats(2.0, 9.0), st.one_of(st.none(), st.floats(0.5, 5.0))),
                 min_size=2, max_size=3),
        st.permutations(range(3)), st.sampled_from([0.5, 1.0, 1.5, None]),
@@ -375,6 +377,7 @@ def test_window_features_follow_a_sign_change_a_scale_and_an_offset(n_windows, n
     np.testing.assert_allclose(density(off), density(F), rtol=1e-6, atol=1e-18)
 
 
+@pytest.mark.slow
 @given(st.integers(1, 3), st.integers(8, 50), st.sampled_from([20.0, 50.0]),
        st.integers(0, 2 ** 32 - 1), st.data())
 @settings(max_examples=25, deadline=None)

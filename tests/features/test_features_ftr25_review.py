@@ -187,6 +187,7 @@ def test_compiled_statistics_equal_their_python_function(offset, scale, n, seed)
     np.testing.assert_allclose(a, b, rtol=1e-13, atol=1e-13)
 
 
+@pytest.mark.slow
 def test_freshly_compiled_statistics_equal_the_cached_kernel():
     # the kernel numba loads from its cache (cache=True) and one compiled anew from the same
     # Python function give the same statistics to the last bit, on a signal far from 0

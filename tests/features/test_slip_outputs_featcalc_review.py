@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 import features.slip_outputs as slip_outputs
 from terrain.io.measured import read_runs_dir
@@ -10,6 +11,7 @@ from terrain.io.writer import write_run
 from terrain.sim import SimConfig, simulate
 
 
+@pytest.mark.slow
 def test_the_physics_std_uses_the_runs_pitch_prior(tmp_path, monkeypatch):
     """The pseudo-measurement's load uncertainty takes the run's pitch prior
     (run_pitch_prior over its windows): a prior of a 0.3 rad slope instead of the level

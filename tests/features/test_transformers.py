@@ -162,6 +162,7 @@ def shipped_windows(borealtc_runs, vulpi_runs):
             make_windows(vulpi_runs, "all", WindowConfig(window_s=2.0, rate_hz=50.0))]
 
 
+@pytest.mark.slow
 def test_feature_matrix_on_shipped_windows_is_finite(shipped_windows):
     for ws in shipped_windows:
         fx = WindowFeatures(channels=ws.channels, rate_hz=ws.rate_hz)
@@ -173,6 +174,7 @@ def test_feature_matrix_on_shipped_windows_is_finite(shipped_windows):
         assert (F.std(axis=0) > 0).all()
 
 
+@pytest.mark.slow
 def test_shipped_features_match_the_scipy_reference_batch_and_single(shipped_windows):
     """The vectorised transform (product powers, precomputed taper and band matrix) agrees
     with the per-window scipy reference on real windows, in a batch and one window at a
@@ -201,6 +203,7 @@ def test_band_weights_average_the_bins_of_each_band():
     assert np.flatnonzero(W[:, 2]).tolist() == [14]  # empty band: nearest bin, 7.0 Hz
 
 
+@pytest.mark.slow
 def test_serial_feature_union_equals_feature_union(shipped_windows):
     """The serial union gives FeatureUnion's output bit for bit (weights and dropped parts
     included) and keeps its names, parameters and pickling."""

@@ -12,6 +12,7 @@ from features.transformers import MAX_BANDS, linear_bands
 from terrain.errors import ConfigError
 
 
+@pytest.mark.slow
 @settings(max_examples=200, deadline=None)
 @given(st.integers(10, 4000))
 def test_a_width_that_cuts_exactly_max_bands_is_allowed(decihertz):

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 from hypothesis import given, settings
 from hypothesis import strategies as st
+import pytest
 
 from features.windows import WindowConfig, make_windows
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run
@@ -44,6 +45,7 @@ def _oracle(times: list[np.ndarray], rate_hz: float, n: int, hop: int):
     return grid, starts[~hit], int((hit & ~empty).sum()), int(empty.sum())
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(imu_holes=st.lists(st.tuples(st.floats(0.5, 9.0), st.floats(0.04, 1.5)), max_size=2),
        wheel_holes=st.lists(st.tuples(st.floats(0.5, 9.0), st.floats(0.5, 2.0)), max_size=2),

@@ -389,6 +389,7 @@ def test_text_columns_left_out_are_recorded_in_attrs(make_run):
     assert plain.attrs["dropped_columns"] == () and plain.attrs["n_dropped_columns"] == 0
 
 
+@pytest.mark.slow
 def test_a_clock_that_jumps_is_named_not_a_memory_error(make_run):
     """A last wheel timestamp of 1.7e9 s (the Unix epoch) after 10 s of data: the overlap
     asked for an 8.5e10-point grid (633 GiB, a bare MemoryError through every wheel-only

@@ -120,6 +120,7 @@ def _read_back(tmp_path, run: Run):
         return read_runs_dir(tmp_path)
 
 
+@pytest.mark.slow
 def test_a_simulated_run_written_and_read_back_keeps_the_filters_convention(tmp_path, sim_run):
     (back,) = _read_back(tmp_path, sim_run)
     model = SkidSteerSlipModel()

@@ -74,6 +74,7 @@ def _read(root):
     return runs, [w for w in caught if issubclass(w.category, DataWarning)]
 
 
+@pytest.mark.slow
 def test_shipped_and_csv_data_load_with_zero_warnings(tmp_path, borealtc_runs, vulpi_runs):
     with warnings.catch_warnings():
         warnings.simplefilter("error")
@@ -322,6 +323,7 @@ def test_stuck_window_flags_take_windows_as_half_open():
                            "stuck:wheels.cur_l", "stuck:wheels.cur_l", ""]
 
 
+@pytest.mark.slow
 def test_run_shorter_than_one_window_and_gaps_are_reported(runs_by_id, tmp_path):
     imu, pro = _write(runs_by_id["borealtc/ASPHALT/00"], tmp_path)
     _edit(imu, lambda f: f[f["time"] < 1.2])
@@ -818,6 +820,7 @@ def test_a_runs_path_that_is_a_symbolic_link_loop_is_a_data_format_error(tmp_pat
     assert info.value.path == str(loop) and "not a folder of runs" in str(info.value)
 
 
+@pytest.mark.slow
 def test_a_header_repeated_inside_the_file_is_named_as_such(turning):
     # two logs joined into one file: the second header was a "non-numeric value 'time'" at
     # its line, without a word about why

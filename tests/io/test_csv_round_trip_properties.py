@@ -81,6 +81,7 @@ def _table(lines):
     return [line.split(",") for line in lines]
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(run=runs(), crlf=st.booleans(), bom=st.booleans(), final_newline=st.booleans(),
        quote=st.booleans(), extra=st.booleans(), order_seed=st.integers(0, 1000))
@@ -117,6 +118,7 @@ CORRUPTIONS = {
 }
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(run=runs(), kind=st.sampled_from(sorted(KINDS)), what=st.sampled_from(
     sorted(CORRUPTIONS)), pick=st.integers(0, 10_000), crlf=st.booleans(), bom=st.booleans())
@@ -151,6 +153,7 @@ def test_one_corrupted_cell_names_file_column_and_line(run, kind, what, pick, cr
     assert f"line {row + 2}" in str(err) and "\n" not in str(err)
 
 
+@pytest.mark.slow
 @SETTINGS
 @given(run=runs(), kind=st.sampled_from(sorted(KINDS)), pick=st.integers(0, 100),
        bom=st.booleans())

@@ -116,6 +116,7 @@ def test_convert_of_runs_without_metadata_keys_warns_none(tmp_path):
     assert not [w for w in found if "metadata" in str(w.message)]
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(t0=st.sampled_from([0.0, 1234.5, 86400.0 * 4, 1.0e6, 3.3e6, 1.7e9]),
        wheel_hz=st.sampled_from([6.5, 15.0, 20.0, 66.0]))
@@ -249,6 +250,7 @@ def _edited(edits) -> Run:
     return Run(run.run_id, run.dataset, run.terrain, streams)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(edits=st.lists(_EDIT, max_size=3))
 def test_write_run_refuses_or_the_readers_give_the_run_back(edits):

@@ -161,6 +161,7 @@ def test_a_clock_of_numbers_holding_one_text_or_boolean_stamp_is_refused_naming_
     assert err.value.row == 7
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None)
 @given(dtype=st.sampled_from(["float64", "float32", "int64", "object"]),
        n=st.integers(2, 30), rate=st.sampled_from([1.0, 2.0, 4.0]))
@@ -184,6 +185,7 @@ def test_a_terrain_with_a_lone_surrogate_is_refused_before_writing(tmp_path, ter
     assert _no_file(tmp_path)
 
 
+@pytest.mark.slow
 @settings(**_SETTINGS)
 @given(terrain=st.text(min_size=1, max_size=8))
 def test_a_terrain_the_writer_takes_is_read_back_as_the_runs_label(tmp_path_factory,
@@ -241,6 +243,7 @@ def _quantised_run(t0_s: float, imu_hz: float, wheel_hz: float, seconds: float, 
                meta={"note": "piste d'été ☃", "seed": seed, "rates": [imu_hz, wheel_hz]})
 
 
+@pytest.mark.slow
 @settings(**{**_SETTINGS, "max_examples": 8})
 @given(t0=st.sampled_from([0.0, 1.7e9]), imu_hz=st.sampled_from([50.0, 100.0, 200.0]),
        wheel_hz=st.sampled_from([5.0, 8.0, 10.0, 12.5, 20.0]), seconds=st.integers(3, 6),

@@ -95,6 +95,7 @@ def _json_equal(a, b) -> bool:
     return type(a) is type(b) and a == b
 
 
+@pytest.mark.slow
 @FAST
 @given(run=written_runs())
 def test_any_valid_run_reads_back_to_nine_significant_digits(run):

@@ -147,6 +147,7 @@ _extreme = st.one_of(
     st.floats(min_value=-1e-300, max_value=1e-300))
 
 
+@pytest.mark.slow
 @FAST
 @given(values=st.lists(_extreme, min_size=2, max_size=30), t0=st.sampled_from([0.0, 1.7e9]))
 def test_extreme_magnitudes_and_negative_zero_read_back(values, t0):
@@ -222,6 +223,7 @@ def gapped_runs(draw):
     return _husky_run(t_imu=t_i, t_wheels=t_w)
 
 
+@pytest.mark.slow
 @FAST
 @given(run=gapped_runs())
 def test_the_gaps_a_reader_lists_are_exactly_the_nan_of_the_aligned_frame(run):

@@ -186,6 +186,7 @@ def _extra_streams(draw):
     return name, pd.DataFrame(data)
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None, derandomize=True)
 @given(extra=_extra_streams(), seed=st.integers(0, 10))
 def test_an_extra_stream_written_reads_back_exactly(extra, seed):

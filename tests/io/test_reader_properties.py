@@ -86,6 +86,7 @@ def _check_valid(run: Run) -> None:
         assert np.isfinite(frame.to_numpy(dtype=float)).all()
 
 
+@pytest.mark.slow
 @settings(max_examples=100, deadline=None, derandomize=True,
           suppress_health_check=[HealthCheck.function_scoped_fixture])
 @given(ops=st.lists(st.tuples(st.sampled_from(["imu", "pro"]), _op), min_size=1, max_size=4))

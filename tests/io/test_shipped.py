@@ -141,6 +141,7 @@ def test_data_dir_env_override(monkeypatch, tmp_path):
     assert (default_data_dir() / "manifest.json").exists()
 
 
+@pytest.mark.slow
 def test_combined_dataset_has_nine_classes_and_seventy_runs(data_dir):
     runs = load_dataset("combined", data_dir)
     assert len(runs) == 70
@@ -209,6 +210,7 @@ def _edit_manifest(data_dir, fn):
     return path
 
 
+@pytest.mark.slow
 def test_a_parquet_file_edited_after_conversion_is_refused_by_its_checksum(vulpi_copy):
     # a valid Parquet file with a column dropped (or a duplicated timestamp, a NaN burst):
     # none of the CSV reader's rules ran on it, so the reader refuses it by its checksum
@@ -361,6 +363,7 @@ def test_a_manifest_that_omits_a_stream_file_that_exists_is_refused(vulpi_copy):
         read_shipped("vulpi", vulpi_copy)
 
 
+@pytest.mark.slow
 def test_has_imu_and_runs_without_imu_must_agree_with_the_imu_rows(vulpi_copy, data_dir):
     import shutil
     path = _edit_manifest(vulpi_copy, lambda e: e["runs"][4].__setitem__("has_imu", False))

@@ -35,6 +35,7 @@ def _ar1(rng, n: int, phi: float) -> np.ndarray:
     return x
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None)
 @given(st.sampled_from([0.0, 0.5, 0.9, 0.99, 1.0]), st.sampled_from([6.5, 15.0, 50.0]),
        st.floats(1.0, 300.0), st.integers(0, 2**32 - 1))
@@ -75,6 +76,7 @@ def _check(run, wheels):
         check_run(run.run_id, dict(run.streams, wheels=wheels), run.vehicle, {})
 
 
+@pytest.mark.slow
 def test_shipped_runs_pass_and_the_turning_ones_swapped_are_refused(borealtc_runs, vulpi_runs):
     # measured 2026-11-30: every shipped run passes as logged; with the sides swapped, 8 of
     # the 23 BorealTC runs that turn enough to be judged are refused (the rest turn too

@@ -96,6 +96,7 @@ def test_a_plausible_run_is_written_and_the_readers_findings_are_theirs_to_warn(
                                rtol=5e-9)
 
 
+@pytest.mark.slow
 def test_a_simulated_run_with_its_wheel_sides_swapped_is_refused_before_writing(tmp_path):
     # rule wheel_sides judges the run (check_run): a simulated drive with its left and right
     # wheel columns exchanged was written, then refused by every reader

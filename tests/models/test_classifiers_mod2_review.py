@@ -17,6 +17,7 @@ from terrain.models.metrics import majority_vote, run_majority_accuracy
 ONE_EPOCH = {**FAST, "max_epochs": 1}
 
 
+@pytest.mark.slow
 def test_the_seed_draws_the_early_stopping_validation_runs():
     # random_state is documented as the seed of the validation split too: two seeds hold
     # out the runs of two different class-keeping splits, each that seed's own (seed 0:

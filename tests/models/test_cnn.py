@@ -52,6 +52,7 @@ WEIGHTS_ARE_DRAWS = ("weights are drawing probabilities of a seeded sampler, equ
                      "tests/models/test_run_balanced_models.py")
 
 
+@pytest.mark.slow
 @parametrize_with_checks([RawCNNClassifier(**CONTRACT),
                           SpectrogramCNNClassifier(segment_s=0.04, hop_s=0.02, **CONTRACT)],
                          expected_failed_checks=lambda est: {

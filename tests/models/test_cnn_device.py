@@ -23,6 +23,7 @@ def _planted_cell(cell, blocks):
     return ws, y, runs, None
 
 
+@pytest.mark.slow
 def test_device_rows_cross_validate_on_the_requested_device(monkeypatch):
     rows_of = runpy.run_path(str(SCRIPT))["device_rows"]
     made = []

@@ -160,6 +160,7 @@ def test_quick_compare_writes_table_figure_and_child_runs(workdir, capsys):
     assert (children["metrics.n_windows_dropped"] == 0).all()
 
 
+@pytest.mark.slow
 def test_a_failing_cell_closes_the_local_dask_cluster(monkeypatch):
     # the local cluster (two worker processes) was closed only when the grid ended well:
     # an exception inside the block left it running
@@ -214,6 +215,7 @@ def test_an_address_with_the_local_backend_is_refused_before_any_run(tmp_path, c
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_soft_vote_of_cv_predictions_equals_the_fixed_weight_ensemble():
     from sklearn.linear_model import LogisticRegression
     from sklearn.pipeline import make_pipeline
@@ -257,6 +259,7 @@ def test_early_stopping_reaches_the_cnns():
     assert make_model(ModelConfig(kind="cnn"), ("ax",), 50.0, "vulpi").early_stopping is False
 
 
+@pytest.mark.slow
 def test_paper_protocol_is_explicit_and_labelled_leaky():
     from terrain.models.compare import markdown_table, run_cell, summary_table
 
@@ -354,6 +357,7 @@ def test_merge_compare_refuses_a_cell_given_by_two_folders(tmp_path, monkeypatch
     assert not out.exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("setting,first,second,models", [
     ("n_splits", 5, 3, ("m1", "m2")),          # folds differ: the vote's members too
     ("max_epochs", 30, 1, ("m1", "m1")),       # one model's seeds trained for other epochs
@@ -398,6 +402,7 @@ def test_merge_compare_refuses_folders_run_with_other_settings(
     assert done.value.code == 0
 
 
+@pytest.mark.slow
 def test_a_failing_cell_leaves_the_finished_cells_logged_and_saved(workdir, capsys):
     import mlflow
 

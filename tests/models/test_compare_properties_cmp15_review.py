@@ -37,6 +37,7 @@ def cell_rows(draw):
     return pd.DataFrame(rows)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(rows=cell_rows(), order=st.randoms(use_true_random=False))
 def test_summary_equals_a_direct_computation_per_group_whatever_the_row_order(rows, order):
@@ -57,6 +58,7 @@ def test_summary_equals_a_direct_computation_per_group_whatever_the_row_order(ro
     pd.testing.assert_frame_equal(summary_table(shuffled), summary_table(rows), rtol=1e-12)
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(rows=cell_rows())
 def test_markdown_shows_every_group_once(rows):
@@ -71,6 +73,7 @@ def test_markdown_shows_every_group_once(rows):
             assert cells[6 + j] == f"{r[m + '_mean']:.3f} ± {r[m + '_std']:.3f}"
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(rows=cell_rows())
 def test_grid_markdown_bolds_exactly_the_best_accuracy_of_each_column(rows):
@@ -114,6 +117,7 @@ def predictions(draw):
     return frame.iloc[list(perm)], classes
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(data=predictions(), k=st.integers(1, 7))
 def test_history_decision_is_the_brute_force_mean_of_the_last_k_windows(data, k):
@@ -164,6 +168,7 @@ def test_cells_are_the_full_cross_product_each_once(models, signals, windows, da
     assert all(c.protocol == "grouped" and c.train_hop_s is None for c in cells)
 
 
+@pytest.mark.slow
 @settings(max_examples=20, deadline=None)
 @given(rows=cell_rows())
 def test_the_written_tables_read_back_equal(rows, tmp_path_factory):
@@ -217,6 +222,7 @@ def _merge(dirs, out, *options):
     return done.value.code
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None)
 @given(cells=st.lists(st.tuples(st.sampled_from(["m1", "m2", "m3"]), st.integers(0, 2),
                                 st.lists(st.floats(0.0, 1.0), min_size=12, max_size=12)),

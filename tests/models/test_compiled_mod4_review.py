@@ -60,6 +60,7 @@ def test_passthrough_steps_are_skipped_on_the_fast_path():
     np.testing.assert_array_equal(model.predict_proba(X[:2]), [[0.9, 0.1]] * 2)
 
 
+@pytest.mark.slow
 def test_minirocket_refuses_boolean_windows():
     """aeon read a mask handed over for the signals (X > 0) as 0/1 windows, silently."""
     pytest.importorskip("aeon")

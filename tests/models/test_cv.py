@@ -178,6 +178,7 @@ def test_cv_notes_the_blocks_actually_made_and_warns_below_two(vulpi_runs):
     assert "WARNING" not in notes["DIRT_ROAD"][0]
 
 
+@pytest.mark.slow
 def test_loro_with_several_seeds_says_the_folds_repeat(vulpi_runs):
     config = dict(dataset="vulpi", signals=("wheels",), window_s=30.0, protocol="loro")
     twice = run_cv(ExperimentConfig(seeds=(0, 1), **config), vulpi_runs)

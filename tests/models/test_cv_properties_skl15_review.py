@@ -96,6 +96,7 @@ def predictions(draw):
     return classes, np.asarray(y_true), np.asarray(y_pred)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(predictions())
 def test_window_metrics_are_scikit_learns(case):
@@ -124,6 +125,7 @@ def _vote_reference(y_true, y_pred, groups) -> float:
     return float(np.mean(right))
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(predictions(), st.data())
 def test_run_majority_accuracy_equals_a_slow_vote(case, data):
@@ -154,6 +156,7 @@ def _cv(X, labels, groups, seeds, protocol="grouped", n_splits=3):
                           n_splits=n_splits)
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(layouts(max_classes=3, max_runs=3, max_windows=5, min_classes=2, min_runs=2),

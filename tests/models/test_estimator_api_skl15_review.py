@@ -99,6 +99,7 @@ def fitted(data):
     return {kind: _fit(make(), X, y, groups) for kind, make in FACTORIES.items()}
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("kind", KINDS)
 def test_clone_of_a_fitted_model_is_unfitted_with_equal_parameters(kind, fitted, data):
     model = fitted[kind]

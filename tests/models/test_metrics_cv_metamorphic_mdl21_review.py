@@ -7,6 +7,7 @@ change when the windows are shuffled or the runs renamed."""
 import warnings
 
 import numpy as np
+import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 from sklearn.metrics import accuracy_score, balanced_accuracy_score, f1_score
 from sklearn.neighbors import KNeighborsClassifier
@@ -19,6 +20,7 @@ CLASSES = ["a", "b", "c", "d"]
 label = st.sampled_from(CLASSES)
 
 
+@pytest.mark.slow
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.tuples(label, label), min_size=1, max_size=30), st.permutations(CLASSES),
        st.integers(0, 4))
@@ -36,6 +38,7 @@ def test_window_metrics_agree_with_sklearn_for_any_class_order(pairs, order, n_l
     assert all(np.isclose(m[k], other[k]) for k in m)
 
 
+@pytest.mark.slow
 @settings(max_examples=50, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 4), label), min_size=1, max_size=30),
        st.lists(label, min_size=5, max_size=5), st.randoms())
@@ -71,6 +74,7 @@ def _cv(X, y, groups, t0, protocol, seed):
                           protocol, (seed,), 2)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(labelled_runs(), st.sampled_from(["grouped", "loro"]), st.integers(0, 5), st.randoms())
 def test_cross_validate_is_invariant_to_window_order_and_run_names(rows, protocol, seed, rnd):

@@ -39,6 +39,7 @@ def _features(model):
     return [np.asarray(p) for p in model.rocket_.parameters]
 
 
+@pytest.mark.slow
 def test_two_fits_at_once_draw_the_kernels_of_their_own_seed(slow_aeon):
     X = np.random.default_rng(0).normal(size=(6, 2, 20))
     expected = [_features(MiniRocketFeatures(n_kernels=84, random_state=s).fit(X))

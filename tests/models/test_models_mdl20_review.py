@@ -39,6 +39,7 @@ def test_history_refuses_probabilities_that_are_not_finite(bad):
         history_predictions(frame, ("a", "b", "c"), 1)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(st.data())
 def test_history_is_the_argmax_of_the_causal_mean_of_the_last_k_windows(data):
@@ -65,6 +66,7 @@ def test_history_is_the_argmax_of_the_causal_mean_of_the_last_k_windows(data):
 labels = st.sampled_from(["a", "b", "c", "d"])
 
 
+@pytest.mark.slow
 @settings(max_examples=80, deadline=None)
 @given(st.data())
 def test_window_metrics_match_scikit_learn(data):

@@ -183,6 +183,7 @@ _runs = st.lists(st.tuples(st.sampled_from("abc"), st.integers(0, 5)), min_size=
                  max_size=40)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(rows=_runs, seed=st.integers(0, 2 ** 16))
 def test_every_run_of_a_class_weighs_the_same_and_each_class_keeps_its_total(rows, seed):

@@ -23,6 +23,7 @@ def _runs(n_runs=12, per_run=6, seed=0):
     return X, y, groups
 
 
+@pytest.mark.slow
 def test_the_search_of_a_calibrated_svm_tunes_the_svc_inside_the_calibration():
     # the grid named svc__C / svc__gamma, parameters of the SVC: with probability=True the
     # step is a CalibratedClassifierCV and the search raised scikit-learn's bare

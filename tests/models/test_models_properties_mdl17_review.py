@@ -321,6 +321,7 @@ def test_normalised_weights_keep_the_ratios_and_sum_to_one(w):
 # ---------------------------------------------------------------------------- compiled
 
 
+@pytest.mark.slow
 @FAST
 @given(st.integers(0, 2 ** 16), st.sampled_from([ExtraTreesClassifier, RandomForestClassifier]),
        st.floats(0.0, 0.3))

@@ -89,6 +89,7 @@ def test_replacing_the_final_step_is_seen_by_the_fast_path(build):
     np.testing.assert_allclose(model.predict_proba(X), _plain(model, X), atol=1e-12)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(w=st.lists(st.floats(0.0, 5.0), min_size=2, max_size=2).filter(lambda v: sum(v) > 0.1),
        seed=st.integers(0, 50))
@@ -151,6 +152,7 @@ def test_cnn_round_trips(index):
                                   text.classes_[text.predict_proba(Xq).argmax(axis=1)])
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None)
 @given(seed=st.integers(0, 100), random_state=st.integers(0, 5))
 def test_chosen_weights_are_the_first_best_on_held_out_training_runs(seed, random_state):

@@ -105,6 +105,7 @@ def _planted_with_an_odd_long_run(seed: int = 0):
     return np.asarray(X, dtype=np.float32), np.asarray(y), np.asarray(groups)
 
 
+@pytest.mark.slow
 def test_cnn_draws_its_epochs_by_the_window_weights():
     X, y, groups = _planted_with_an_odd_long_run()
     test = np.isin(groups, ["a3", "b3"])
@@ -129,6 +130,7 @@ def test_cnn_draws_its_epochs_by_the_window_weights():
         fit(np.ones(3))
 
 
+@pytest.mark.slow
 def test_fitted_cnn_keeps_neither_its_training_weights_nor_its_draw_generator():
     X, y, groups = _planted_with_an_odd_long_run()
     weighted = RawCNNClassifier(**FAST).fit(X, y, sample_weight=np.linspace(0.5, 2.0, len(y)))

@@ -36,6 +36,7 @@ def wheel_rates():
             for ds in ("borealtc", "vulpi")}
 
 
+@pytest.mark.slow
 def test_wheel_rates_of_the_registry_are_those_of_the_readers_and_the_manifest(wheel_rates):
     manifest = json.loads((DATA / "manifest.json").read_text())["datasets"]
     for ds, rate in wheel_rates.items():
@@ -63,6 +64,7 @@ def test_spectrogram_band_limits_of_every_wheel_signal_are_the_wheel_nyquist(dat
     assert tuple(model.band_limits_hz) == band_limits_hz(channels, dataset)
 
 
+@pytest.mark.slow
 def test_window_ekf_gets_the_readers_wheel_rate(wheel_rates):
     for ds, rate in wheel_rates.items():
         model = make_model(ModelConfig(kind="svm", window_ekf=True), CHANNELS,

@@ -26,6 +26,7 @@ def fitted(request, borealtc_runs, vulpi_runs):
     return model, ws.X[~train]
 
 
+@pytest.mark.slow
 def test_fast_proba_equals_sklearn_pipeline(fitted):
     model, X_test = fitted
     assert isinstance(model, SVMPipeline) and model._compiled() is not None

@@ -62,6 +62,7 @@ def _slow_forward(module, seconds):
     return slow
 
 
+@pytest.mark.slow
 def test_overlapping_predictions_leave_new_threads_the_process_count(two_threads):
     X, y = _windows()
     models = [RawCNNClassifier(max_epochs=1, batch_size=4, random_state=s).fit(X, y)
@@ -96,6 +97,7 @@ def test_overlapping_predictions_leave_new_threads_the_process_count(two_threads
     assert _in_new_thread(torch.get_num_threads) == two_threads
 
 
+@pytest.mark.slow
 def test_a_fit_started_beside_another_keeps_the_process_count(two_threads, monkeypatch):
     X, y = _windows()
     inside = threading.Event()

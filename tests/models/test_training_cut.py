@@ -127,6 +127,7 @@ def test_fit_pipeline_trains_on_the_training_cut(vulpi_runs):
     assert pipe.predict_proba(plain.X[:3]).shape == (3, len(np.unique(plain.labels)))
 
 
+@pytest.mark.slow
 def test_compare_cell_with_a_training_cut():
     from terrain.models.compare import Cell, run_cell, summary_table
 
@@ -200,6 +201,7 @@ def test_cv_paper_protocol_refuses_an_explicit_window_length(capsys):
     assert "paper protocol fixes its windows" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_paper_protocol_says_its_vote_is_per_partition(vulpi_runs):
     res = run_cv(ExperimentConfig(dataset="vulpi", signals=("wheels",), seeds=(0,),
                                   protocol="paper"), runs=vulpi_runs, progress=False)

@@ -43,6 +43,7 @@ class _Recorder(ClassifierMixin, BaseEstimator):
         return np.full((len(X), len(self.classes_)), 1.0 / len(self.classes_))
 
 
+@pytest.mark.slow
 def test_make_model_wraps_the_model_built_for_the_augmented_channels(windows):
     model = make_model(ModelConfig(kind="svm", window_ekf=True), windows.channels,
                        windows.rate_hz, "borealtc", random_state=4)
@@ -53,6 +54,7 @@ def test_make_model_wraps_the_model_built_for_the_augmented_channels(windows):
     assert clone(model).get_params()["estimator__svc__estimator__random_state"] == 4
 
 
+@pytest.mark.slow
 def test_the_wrapped_classifier_sees_the_window_and_its_ekf_channels(windows):
     model = WindowEKFClassifier(_Recorder(), windows.channels, windows.rate_hz, 6.5)
     groups = np.asarray(windows.run_ids)

@@ -23,6 +23,7 @@ def _simulate(vehicle: str, terrain: str, seed: int) -> None:
                  "--scenario", "straight_accel", "--seed", str(seed), "--out", "runs"]) == 0
 
 
+@pytest.mark.slow
 def test_audit_input_report_counts_the_runs_the_audit_skipped(workdir, capsys):
     # an AgriMaRo run among Husky runs is skipped by the audit (it replays skid-steers
     # only): the input report said "input: 2 run(s), 2 used" (MLflow input_runs_used 2) above
@@ -84,6 +85,7 @@ def test_control_grid_checks_a_vehicle_in_any_case():
         pipelines.control_grid.check_grid(args)
 
 
+@pytest.mark.slow
 def test_stream_eval_hides_its_progress_bars_with_no_progress(workdir, monkeypatch, capsys):
     # cv, train, predict, audit and compare take --no-progress; stream-eval drew its
     # held-out streams' progress bar over the folds whatever one asked (a usage error)
@@ -124,6 +126,7 @@ def test_a_finite_hop_too_long_to_count_in_samples_is_an_input_error(argv, workd
     assert "internal error" not in err and "hop" in err and len(err.splitlines()) == 1, err
 
 
+@pytest.mark.slow
 def test_audit_refuses_a_low_pass_too_low_to_compute_as_an_input_error(workdir, capsys):
     # --replay-input-lowpass-hz 1e-12 (a finite number > 0, what its type takes) ended in
     # "internal error: LinAlgError: Singular matrix" (exit 1) from scipy's filter start

@@ -88,6 +88,7 @@ def few_borealtc_runs(borealtc_runs):
     return out
 
 
+@pytest.mark.slow
 def test_stream_eval_saves_the_model_it_fitted_with_its_metadata(few_borealtc_runs, tmp_path,
                                                                  monkeypatch, capsys):
     # stream-eval --model-out saved the fitted streaming model with {"dataset", "recipe"}

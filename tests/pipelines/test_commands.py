@@ -87,6 +87,7 @@ def test_positional_arguments_show_in_usage_as_their_help_names_them():
             assert f" {_POSITIONAL_NAMES[name]}" in usage, (name, usage)
 
 
+@pytest.mark.slow
 def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     out = workdir / "cv.json"
     assert main(["cv", "--dataset", "vulpi", "--json", str(out), "--no-progress"]) == 0
@@ -119,6 +120,7 @@ def test_cv_vulpi_reports_grouped_metrics_and_logs_mlflow(workdir, capsys):
     assert {"confusion_matrix.png", "confusion_matrix.csv", "predictions.csv"} <= arts
 
 
+@pytest.mark.slow
 def test_cv_names_each_skipped_run_once_and_keeps_the_note_in_json(workdir, capsys,
                                                                    monkeypatch):
     """Two FLOORING runs lack a stream: the printed input report says so once, not again as
@@ -138,6 +140,7 @@ def test_cv_names_each_skipped_run_once_and_keeps_the_note_in_json(workdir, caps
     assert "run(s) skipped" in printed
 
 
+@pytest.mark.slow
 def test_train_then_predict_on_measured_layout(workdir, capfd):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model-out", str(model_dir),
@@ -182,6 +185,7 @@ def test_train_then_predict_on_measured_layout(workdir, capfd):
     assert len(notes) == 1 and "runs/UNKNOWN_A/1" in notes[0] and "'agrimaro'" in notes[0]
 
 
+@pytest.mark.slow
 def test_train_names_classes_without_slip_targets_and_stream_says_why(workdir, capsys,
                                                                       monkeypatch):
     # runs converted from folders of the user's own names: train takes any label; stream
@@ -217,6 +221,7 @@ def test_convert_regenerates_identical_data(workdir):
             pd.testing.assert_frame_equal(a.streams[name], b.streams[name])
 
 
+@pytest.mark.slow
 def test_convert_names_what_the_shipped_format_leaves_out_and_refuses_another_robot(
         workdir, capsys):
     # simulated runs carry a truth stream (the AgriMaRo's also cam, steer, omega, cur): the
@@ -267,6 +272,7 @@ def test_predict_checks_the_model_before_reading_the_runs(workdir, capfd):
     assert "cannot load model" in err and "nope does not exist" in err
 
 
+@pytest.mark.slow
 def test_predict_reports_one_hole_in_every_stream_once(workdir, capsys, small_model):
     """A 1000 s hole in both files of a run: one gap of its length, at most the two windows
     at its edges dropped, the window positions inside it said to hold no data."""
@@ -307,6 +313,7 @@ def _assert_predicts_ploughed(model_dir, workdir):
     assert len(pred) > 5 and pred["predicted"].value_counts().index[0] == "PLOUGHED"
 
 
+@pytest.mark.slow
 def test_train_with_window_ekf_serves_raw_signals(workdir, capsys):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model", "svm", "--window-ekf",
@@ -329,6 +336,7 @@ def test_window_ekf_needs_the_filter_inputs(workdir, capsys):
     assert "--window-ekf" in err and "wz" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_train_run_balanced_serves_the_wrapped_model(workdir, capsys):
     model_dir = workdir / "model"
     assert main(["train", "--dataset", "vulpi", "--model", "svm", "--run-balanced",

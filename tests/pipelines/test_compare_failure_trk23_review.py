@@ -30,6 +30,7 @@ def empty_store(tmp_path_factory):
     return folder / "mlflow.db"
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("error, code", [(RuntimeError("worker lost"), 1),
                                          (KeyboardInterrupt(), 130)])
 def test_a_grid_that_stops_keeps_its_cells_and_no_summary_of_an_earlier_grid(
@@ -74,6 +75,7 @@ def test_a_grid_that_stops_keeps_its_cells_and_no_summary_of_an_earlier_grid(
     assert mlflow.active_run() is None
 
 
+@pytest.mark.slow
 def test_a_summary_that_fails_half_way_leaves_no_part_of_itself(
         tmp_path, monkeypatch, empty_store, capsys):
     # the table and figure were written into --out one by one, so a failure while joining

@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import mlflow
+import pytest
 
 from pipelines.compare import EXPERIMENT, log_cell
 from terrain.tracking import code_version, tracked_run, tracking_uri
@@ -32,6 +33,7 @@ def _log_cells(tmp_path, monkeypatch, cell, rows):
     return children[0]
 
 
+@pytest.mark.slow
 def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_path,
                                                                            monkeypatch):
     # log_cell called mlflow.log_metrics itself: a cell whose run vote is undefined logged
@@ -53,6 +55,7 @@ def test_a_cells_non_finite_metric_is_skipped_and_listed_not_logged_as_nan(tmp_p
     assert child.data.params["code_version"] == code_version()
 
 
+@pytest.mark.slow
 def test_compare_child_run_names_the_training_hop_and_protocol_and_each_history(
         tmp_path, monkeypatch):
     # a cell fitted on 0.5 s hops of 2 s windows under the leaky paper protocol: both in

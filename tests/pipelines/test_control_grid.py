@@ -19,6 +19,7 @@ def workdir(tmp_path, monkeypatch):
     return tmp_path
 
 
+@pytest.mark.slow
 def test_control_grid_tunes_on_other_seeds_and_cuts_the_ice_start_up_slip(workdir, capsys):
     rc = cli_main(["control-grid", "--vehicles", "husky", "--terrains", "ICE", "--seeds", "0",
                    "--duration-s", "4", "--kp-grid", "2", "5", "--ki-grid", "10",
@@ -54,6 +55,7 @@ def test_control_grid_tunes_on_other_seeds_and_cuts_the_ice_start_up_slip(workdi
     assert not {"tuning_husky.json", "comparison.json"} & logged
 
 
+@pytest.mark.slow
 def test_terrain_names_in_lower_case_keep_the_slip_limit_bound(workdir):
     # the catalogue reads terrain names in any case (the runs simulate snow), so the grid's
     # tables and its quasi-static slip-limit bound (soft terrains) must not depend on it

@@ -7,6 +7,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
+
 from cli_helpers import RecordingRun
 
 import pipelines.control_grid as control_grid
@@ -23,6 +25,7 @@ def _listing(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
+@pytest.mark.slow
 def test_a_failed_rerun_leaves_the_earlier_outputs_whole(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(control_grid, "tracked_run", RecordingRun())
@@ -37,6 +40,7 @@ def test_a_failed_rerun_leaves_the_earlier_outputs_whole(tmp_path, monkeypatch):
     assert _listing(tmp_path / "g") == before
 
 
+@pytest.mark.slow
 def test_a_rerun_keeps_no_plot_or_tuning_table_of_the_earlier_one(tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)
     monkeypatch.setattr(control_grid, "tracked_run", RecordingRun())

@@ -323,6 +323,7 @@ _REFUSED = [
 ]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv, text", _REFUSED, ids=[" ".join(a) for a, _ in _REFUSED])
 def test_cli_refuses_out_of_range_values_in_one_line(argv, text, tmp_path, monkeypatch,
                                                      capsys):

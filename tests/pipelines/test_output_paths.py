@@ -272,6 +272,7 @@ def test_an_output_beside_the_input_files_is_taken(tmp_path, monkeypatch):
         assert str(args.out) == target
 
 
+@pytest.mark.slow
 def test_estimate_checks_each_per_run_file_before_any_work(tmp_path, capsys):
     # with several runs, estimate writes <stem>_<TERRAIN>_<XX><suffix> beside --out, files the
     # output checks never saw: '--out runs/ICE/meta.json' planted meta_ICE_00.json and

@@ -24,6 +24,7 @@ def _full_disk_half_way(written: str) -> OSError:
     return OSError(28, f"No space left on device (after {len(written) // 2} characters)")
 
 
+@pytest.mark.slow
 def test_estimate_keeps_the_earlier_table_when_the_rewrite_fails(tmp_path, monkeypatch,
                                                                  capsys):
     run_dir = tmp_path / "sim"
@@ -47,6 +48,7 @@ def test_estimate_keeps_the_earlier_table_when_the_rewrite_fails(tmp_path, monke
     assert sorted(p.name for p in out.parent.iterdir()) == ["state.csv"]
 
 
+@pytest.mark.slow
 def test_the_classifier_cache_holds_no_cut_short_record(tmp_path, monkeypatch):
     # info.json cut short by a full disk stood beside the model, and the next call read
     # the cache as complete and failed in json.loads; now the record is whole or absent,

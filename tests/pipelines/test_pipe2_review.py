@@ -109,6 +109,7 @@ def test_consistency_row_says_inside_against_the_bounds_of_the_time_average():
     assert ConsistencyRow(**{**row.__dict__, "anees": 12.0}).as_dict()["NEES_inside"] is True
 
 
+@pytest.mark.slow
 def test_simulate_notes_the_steps_each_wheel_command_was_clipped_on(tmp_path, capsys):
     # AgriMaRo, random, seed 0, 10 s: the outer wheel's command passes the speed limit; the
     # note counts each wheel's clipped steps out of the run's 1001 time steps (10 s at

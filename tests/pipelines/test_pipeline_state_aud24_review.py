@@ -59,6 +59,7 @@ def _slip_frame():
                      ignore_index=True)
 
 
+@pytest.mark.slow
 def test_a_validation_figure_that_cannot_be_written_is_closed_all_the_same(tmp_path):
     # the figure was drawn on pyplot and closed only after its file was written: a write
     # that failed (a missing folder, a full disk) left it open in pyplot's registry, a

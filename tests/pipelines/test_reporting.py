@@ -96,6 +96,7 @@ MISSING_INPUT_WORDS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("argv", MISSING_INPUT_CASES)
 def test_every_subcommand_answers_a_missing_input_in_one_line_with_status_2(
         workdir, capsys, monkeypatch, argv):
@@ -144,6 +145,7 @@ def test_bad_input_file_is_one_line_naming_file_and_line(workdir, capsys, vulpi_
     assert str(imu) in line and "line 41" in line
 
 
+@pytest.mark.slow
 def test_cv_prints_and_logs_pooled_recall_matching_the_confusion(workdir, capsys):
     out = workdir / "cv.json"
     assert main(["cv", "--dataset", "vulpi", "--seeds", "0", "1", "--json", str(out),
@@ -165,6 +167,7 @@ def test_cv_prints_and_logs_pooled_recall_matching_the_confusion(workdir, capsys
     assert "input_report.csv" in arts
 
 
+@pytest.mark.slow
 def test_train_logs_what_it_trained_and_the_model_resolves_from_another_folder(
         workdir, capsys, monkeypatch, vulpi_runs, recwarn):
     assert main(["train", "--dataset", "vulpi", "--model", "svm", "--model-out", "model",
@@ -218,6 +221,7 @@ def saved_model(tmp_path_factory):
     return folder / "model"
 
 
+@pytest.mark.slow
 def test_predict_says_why_a_run_gives_no_window(workdir, capsys, vulpi_runs, saved_model):
     imu = _write(vulpi_runs[0], workdir / "runs")
     for path in (imu, imu.with_name(imu.name.replace("imu", "pro"))):
@@ -231,6 +235,7 @@ def test_predict_says_why_a_run_gives_no_window(workdir, capsys, vulpi_runs, sav
                                                                         "predict")
 
 
+@pytest.mark.slow
 def test_predict_counts_windows_dropped_for_a_gap(workdir, capsys, vulpi_runs, saved_model):
     imu = _write(vulpi_runs[0], workdir / "runs")
     frame = pd.read_csv(imu)
@@ -242,6 +247,7 @@ def test_predict_counts_windows_dropped_for_a_gap(workdir, capsys, vulpi_runs, s
     assert "dropped windows: 2 spanning a gap" in out
 
 
+@pytest.mark.slow
 def test_predict_counts_and_names_a_run_skipped_for_a_missing_stream(
         workdir, capsys, vulpi_runs, saved_model):
     # a run without the IMU file the model needs is skipped: counted and named, not dropped
@@ -291,6 +297,7 @@ def test_served_model_refuses_a_huge_finite_value(saved_model, vulpi_runs):
     assert "row 300" in str(info.value)
 
 
+@pytest.mark.slow
 def test_audit_of_a_run_with_a_dead_gyro_reports_instead_of_crashing(workdir, capsys,
                                                                      borealtc_runs):
     run = next(r for r in borealtc_runs if r.run_id == "borealtc/ASPHALT/00")
@@ -306,6 +313,7 @@ def test_audit_of_a_run_with_a_dead_gyro_reports_instead_of_crashing(workdir, ca
     assert "audited 1 runs" in captured.out
 
 
+@pytest.mark.slow
 def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdir, capsys,
                                                                           monkeypatch):
     # a registry entry whose artifacts live on S3, read with no AWS credentials: botocore's
@@ -328,6 +336,7 @@ def test_a_registered_model_on_s3_without_credentials_is_a_one_line_error(workdi
     assert "models:/cloudy/1" in line and "credentials" in line, line
 
 
+@pytest.mark.slow
 def test_stream_eval_prints_and_logs_per_seed_accuracy_and_a_readable_table(workdir, capsys,
                                                                             monkeypatch):
     """The held-out stream replay itself is replaced by two fixed score rows per seed: the
@@ -365,6 +374,7 @@ def test_stream_eval_prints_and_logs_per_seed_accuracy_and_a_readable_table(work
     assert pooled["n_switches"] == 6 and np.isinf(max(table["delays_s"].sum()))
 
 
+@pytest.mark.slow
 def test_audit_says_which_checks_a_run_without_imu_misses(workdir, capsys, borealtc_runs):
     # a wheel-only run was "audited 1 runs, skipped 0" without a word that only its
     # currents were compared
@@ -382,6 +392,7 @@ def test_audit_says_which_checks_a_run_without_imu_misses(workdir, capsys, borea
     assert signals == {"cur_l", "cur_r"}
 
 
+@pytest.mark.slow
 def test_a_reader_that_closes_stdout_early_is_not_an_error(tmp_path):
     # `terrain slip-table | head -1`: the reader went away after its first line; the command
     # printed "terrain slip-table: error: [Errno 32] Broken pipe" and exited 2 (or Python's

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import pytest
+
 from pipelines.validation.sim_tables import THESIS_STRAIGHT_LINE, thesis_straight_line_table
 
 
+@pytest.mark.slow
 def test_straight_line_table_sets_each_simulated_steady_slip_in_the_thesis_range():
     # seed 001 ch. 7.2.3: steady slip within 0.01 of 0 on tiles, 11.6-13.5 % on grass,
     # 12.2-14.6 % on gravel; the simulated transient peaks come out lower than the thesis's

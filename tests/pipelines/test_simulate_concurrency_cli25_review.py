@@ -8,6 +8,7 @@ import threading
 import time
 
 import pandas as pd
+import pytest
 
 from pipelines import simulate as simulate_command
 from terrain.cli import build_parser
@@ -15,6 +16,7 @@ from terrain.io.measured import read_runs_path
 from terrain.sim.simulate import SimConfig, simulate
 
 
+@pytest.mark.slow
 def test_two_simulate_commands_into_one_folder_at_once_write_two_runs(
         tmp_path, monkeypatch, capsys):
     runs = {seed: simulate(SimConfig(vehicle="husky", terrains=("ICE",),

@@ -27,6 +27,7 @@ def _listing(folder: Path) -> dict[str, bytes]:
     return {p.name: p.read_bytes() for p in sorted(folder.iterdir())}
 
 
+@pytest.mark.slow
 def test_a_failed_rerun_leaves_the_earlier_outputs_whole(tmp_path, monkeypatch):
     monkeypatch.setattr(slip_fit, "tracked_run", RecordingRun())
     (tmp_path / "o").mkdir()

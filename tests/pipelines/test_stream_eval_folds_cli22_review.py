@@ -34,6 +34,7 @@ def stubbed(monkeypatch, tmp_path):
     return calls
 
 
+@pytest.mark.slow
 def test_folds_beyond_the_largest_class_are_refused_before_the_wheel_cv(stubbed, capsys):
     """BorealTC's wheel streams come from 55 runs, the largest class (SNOW) 22 of them: a
     stratified split by run takes at most 22 folds. ``--folds 23`` passed the check

@@ -70,6 +70,7 @@ TRAIN = ["train", "--dataset", "vulpi", "--model", "svm", "--window-s", "4",
          "--no-progress"]
 
 
+@pytest.mark.slow
 def test_a_successful_training_is_finished_and_registered(workdir, capsys):
     """The stand-in reproduces the command's success: one FINISHED run, one version."""
     assert main(TRAIN) == 0
@@ -79,6 +80,7 @@ def test_a_successful_training_is_finished_and_registered(workdir, capsys):
     assert "registered as terrain-vulpi" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("failure", [OSError(errno.ENOSPC, "No space left on device"),
                                      KeyboardInterrupt()])
 def test_a_training_that_fails_after_logging_its_model_registers_nothing(workdir, capsys,

@@ -42,6 +42,7 @@ def test_slip_tracking_shows_the_thesis_tuning_blindness_on_grass():
     assert steady["slip_true"].between(0.12, 0.15).all()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("report, figure, quick, min_aspect", [
     ("estimation", "slip_tracking", True, 1.0), ("sim", "straight_line", False, 2.0)])
 def test_validate_out_draws_the_reports_figure_beside_the_tables(report, figure, quick,

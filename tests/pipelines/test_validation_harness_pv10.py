@@ -19,6 +19,7 @@ def husky_run():
     return harness.simulate_husky("ASPHALT", 1, 30.0, "random")
 
 
+@pytest.mark.slow
 def test_the_ekfs_eta_takes_the_right_side_speed_first(husky_run):
     # eta of seed 000 eq. 15 is (eta_R, eta_L) from (v, yaw rate, v_R, v_L): the EKF's eta
     # with the sides swapped is off by tens of % on a run where the table reports 0.3-1.3 %

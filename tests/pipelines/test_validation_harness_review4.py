@@ -201,6 +201,7 @@ def test_measured_observer_chi_uses_the_observers_own_half_track():
     assert row["chi_observer"] == pytest.approx(np.nanmedian(chi[turning]), rel=1e-12)
 
 
+@pytest.mark.slow
 def test_a_nan_in_the_ekfs_eta_leaves_the_observers_eta_error_unchanged(monkeypatch):
     # the EKF's eta is NaN where a measured side speed is below eta_from_truth's
     # min_speed_m_s; such samples leave the EKF's error, never the observer's (before: the

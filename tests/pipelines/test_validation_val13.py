@@ -85,6 +85,7 @@ def husky_run():
     return simulate_husky("ASPHALT", 1, 30.0, "random")
 
 
+@pytest.mark.slow
 def test_husky_comparison_reports_the_median_and_the_90th_percentile(husky_run, monkeypatch):
     # the observer's eta error planted as 1, 1 - 1/n, ... over the run's steps (its left
     # side), the EKF's as half that on the right and that on the left: *_err is the median

@@ -9,6 +9,7 @@ import re
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from terrain.serving.body import body_refusal
 
@@ -54,6 +55,7 @@ def bodies(draw):
     return text.encode(), target, bad_col
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 @given(bodies())
 def test_a_number_beyond_the_float_range_is_named_with_the_line_of_its_cell(case):

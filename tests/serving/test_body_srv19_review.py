@@ -74,6 +74,7 @@ _PIECES = st.sampled_from([",", '"', "\n", "\r", "\r\n", "a", "b", "1", " ", "\t
                            "\x0b", "\ufeff"])
 
 
+@pytest.mark.slow
 @settings(max_examples=400, deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.lists(_PIECES, min_size=1, max_size=24))
 @example(["\ufeff", "\ufeff", ",", "a", "\n", ","])
@@ -121,6 +122,7 @@ _VALUES = st.one_of(st.floats(allow_nan=False, allow_infinity=False, width=32),
                     st.integers(-5, 5), st.sampled_from(["wheels", "", None, True]))
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 @given(st.lists(_NAMES, max_size=4), st.lists(st.lists(_VALUES, max_size=5), max_size=4),
        st.booleans(), st.one_of(st.none(), st.lists(st.integers(0, 3), max_size=5)))

@@ -8,6 +8,7 @@ from fractions import Fraction
 import numpy as np
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+import pytest
 
 from features.windows import WindowConfig
 from terrain.serving import StreamConfig, StreamModel, StreamService, TableTargets
@@ -46,6 +47,7 @@ def _recording_service(rate_hz, window_s, hop_s, **config):
 _CLOCKS = [(10.0, 1.0, 0.1), (100.0, 1.0, 0.3), (50.0, 2.0, 0.5), (20.0, 2.0, 0.5)]
 
 
+@pytest.mark.slow
 @FAST
 @given(clock=st.sampled_from(_CLOCKS),
        t0=st.sampled_from([0.0, 3.7, 1.7e9, 1.7e9 + 0.123, 2.0 ** 31, 1e10]))
@@ -74,6 +76,7 @@ def test_a_window_ends_before_the_sample_at_its_decision_time_on_an_epoch_clock(
         assert d.flags in ("", "low_confidence")
 
 
+@pytest.mark.slow
 @FAST
 @given(clock=st.sampled_from(_CLOCKS + [(20.0, 1.0, 0.05)]), data=st.data(),
        t0=st.sampled_from([0.0, 100.0, 1.7e9, 2.0 ** 31]))
@@ -106,6 +109,7 @@ def test_a_refused_sample_flags_exactly_the_windows_that_hold_its_time(clock, da
 TWO = {"left": ("vel_l",), "right": ("vel_r",)}
 
 
+@pytest.mark.slow
 @FAST
 @given(clock=st.sampled_from([(10.0, 1.0, 0.1, 0.3), (20.0, 1.0, 0.05, 0.3),
                               (10.0, 2.0, 0.3, 0.7), (100.0, 1.0, 0.3, 0.9),
@@ -141,6 +145,7 @@ def test_a_stream_silent_for_exactly_stale_s_is_not_stale(clock, data, t0):
         assert ("stale" in d.flags.split("|")) == (end - last > stale), float(end)
 
 
+@pytest.mark.slow
 @FAST
 @given(clock=st.sampled_from([(10.0, 1.0, 0.2, 4.2), (10.0, 1.0, 0.1, 3.0),
                               (10.0, 1.0, 0.3, 6.0), (8.0, 1.0, 0.5, 5.0)]),

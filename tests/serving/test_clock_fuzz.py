@@ -48,6 +48,7 @@ def test_perturb_applies_the_drawn_faults(fuzz):
     assert {"ms", "us"} <= drawn          # both units among these seeds
 
 
+@pytest.mark.slow
 def test_random_clock_faults_never_raise(fuzz, borealtc_runs, wheel_model, all_model,
                                          train_runs):
     seen = {r.run_id for r in train_runs}

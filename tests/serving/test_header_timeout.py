@@ -94,6 +94,7 @@ def test_malformed_http_is_answered_in_the_project_json_form(server, sent):
     assert answer["message"].startswith("DataFormatError: malformed HTTP request")
 
 
+@pytest.mark.slow
 def test_a_request_in_progress_and_keep_alive_reuse_are_not_cut(server):
     address, protocol = server
     before = protocol.timed_out

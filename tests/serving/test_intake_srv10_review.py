@@ -160,6 +160,7 @@ class _Taken:
         monkeypatch.setattr(RingBuffer, "evicted", counted_evicted)
 
 
+@pytest.mark.slow
 def test_random_clock_faults_lose_no_sample_uncounted_and_hold_within_bounds(monkeypatch):
     # two streams pushed in random chunks (1 to 300 samples) with random clock faults:
     # steps back and forward (0.3 s to 1000 s), switches to ms and back, NaN stamps and

@@ -71,6 +71,7 @@ def test_a_request_making_exactly_max_decisions_is_answered_with_all(limited,
     assert status == 200 and len(doc["predictions"]) == LIMIT
 
 
+@pytest.mark.slow
 @settings(max_examples=300, deadline=None, suppress_health_check=list(HealthCheck))
 @given(t0=st.floats(0.0, 5000.0), step=st.sampled_from([0.125, 0.15, 0.16, 0.2]),
        n=st.integers(14, 60))

@@ -53,6 +53,7 @@ def _wide(long: pd.DataFrame) -> pd.DataFrame:
     return pd.concat(cols, axis=1)
 
 
+@pytest.mark.slow
 def test_long_wide_any_column_order_and_any_row_interleaving_answer_the_same(
         served_all, unseen_long, answer):
     """One request in four forms: the wide format, the long one with its columns in another

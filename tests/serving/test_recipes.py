@@ -61,6 +61,7 @@ def test_ensemble_recipes_take_raw_windows_only(kind):
         ModelRecipe("all", 2.0, 100.0, 2.0, "stats", "boosting")
 
 
+@pytest.mark.slow
 def test_ensemble3_recipe_streams_decisions_with_the_service_columns(train_runs,
                                                                      borealtc_runs):
     # the all-ensemble3 recipe on a 20 Hz clock, the first 30 s of 10 runs (fast)
@@ -198,6 +199,7 @@ def test_no_speed_recipe_needs_the_wheel_speeds_but_does_not_classify_them(train
                                                      1e-6)
 
 
+@pytest.mark.slow
 def test_one_second_recipe_is_the_no_speed_dense_ensemble_on_shorter_windows(train_runs,
                                                                              borealtc_runs):
     recipe = RECIPES["all-ensemble-dense-no-speed-1s"]

@@ -307,6 +307,7 @@ def test_utf16_and_unterminated_quotes_are_named_as_such():
                        "runs to the end of the body (file request, line 6)")
 
 
+@pytest.mark.slow
 def test_a_long_run_of_digits_is_judged_in_one_pass():
     """A run of 200,000 digits: the number pattern backtracked quadratically in the run's
     length (40,000 digits held the event loop, and every other request, for 22 s; this run

@@ -79,6 +79,7 @@ def test_every_admitted_request_gets_a_thread_of_its_own():
     assert not thread.is_alive()
 
 
+@pytest.mark.slow
 def test_fewer_threads_than_requests_blocked_at_once_starve_the_rest():
     """The control: with fewer threads than parties the barrier never opens (it breaks at
     its timeout), so the test above measures the executor, not the client."""

@@ -1141,6 +1141,7 @@ def test_messages_show_cells_as_plain_values(served, request_frame):
     assert "unknown stream 1.5 in 1 row(s)" in message and "np." not in message
 
 
+@pytest.mark.slow
 def test_connections_that_never_send_a_byte_cannot_take_the_server_down(server,
                                                                         request_frame):
     # uvicorn times out no connection before its first request: 1,100 such connections
@@ -1246,6 +1247,7 @@ def test_real_server_answers_bad_requests_typed_and_keeps_answering(server, requ
     assert proc.poll() is None and time.monotonic() - start < 20
 
 
+@pytest.mark.slow
 def test_stopping_the_server_removes_its_wrapped_model(server):
     """SIGTERM (what ``kill`` and service managers send) stops the server gracefully and
     removes the temporary wrapped model. Last test of the module: it stops the server."""
@@ -1316,6 +1318,7 @@ def test_a_request_of_50_000_columns_is_refused_in_linear_time(served):
     assert status == 400 and "duplicated column name(s) ['vel_l']" in body["message"]
 
 
+@pytest.mark.slow
 def test_wrapping_says_nothing_of_the_signature_it_leaves_out(wheel_model, tmp_path):
     """The served model has no MLflow signature (a request is either layout, checked by
     parse_request with the project's typed errors); MLflow warned at every wrap that it
@@ -1349,6 +1352,7 @@ def test_wrapping_says_nothing_of_the_signature_it_leaves_out(wheel_model, tmp_p
     assert "signature" not in (tmp_path / "served" / "MLmodel").read_text()
 
 
+@pytest.mark.slow
 def test_the_served_model_decides_one_request_at_a_time_per_lane():
     """MLflow's server runs each prediction in a thread of its pool; CPU-bound requests
     deciding at once only contended (8 requests of 999 s: 47.6 s together against 8 x 3.9 s).

@@ -177,6 +177,7 @@ def check_answer(status: int, doc: dict) -> None:
     assert "\n" not in doc["message"] and "Traceback" not in json.dumps(doc)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data(), fmt=st.sampled_from(["csv", "split", "records"]))
@@ -272,6 +273,7 @@ def _interleaved(frame: pd.DataFrame, rng: np.random.Generator) -> pd.DataFrame:
     return frame.iloc[order, rng.permutation(frame.shape[1])].reset_index(drop=True)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(seed=st.integers(0, 2**32 - 1), fmt=st.sampled_from(["csv", "split", "records"]))
@@ -294,6 +296,7 @@ def _wide(frame: pd.DataFrame) -> pd.DataFrame:
     return pd.concat(parts, axis=1)
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None,
           suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
 @given(data=st.data(), fmt=st.sampled_from(["csv", "split", "records"]))

@@ -84,6 +84,7 @@ def test_imu_and_wheel_decisions_are_the_batch_predictions_on_the_model_clock(
     assert all(d.flags == "" for d in decisions[:n])
 
 
+@pytest.mark.slow
 def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run):
     svc = service(all_model, hop_s=0.5, smoothing=SmoothingConfig())
     decisions = replay_run(svc, unseen_run)
@@ -113,6 +114,7 @@ def test_replay_of_an_imu_and_wheel_run_decides_every_hop(all_model, unseen_run)
     assert (frame["target_slip_steady"] != frame["target_slip_braking"]).all()
 
 
+@pytest.mark.slow
 def test_a_window_does_not_depend_on_how_many_samples_past_its_end_have_arrived(
         all_model, unseen_run):
     """Each stream pushed in 1 s chunks gives the decisions of the sample-by-sample replay.
@@ -139,6 +141,7 @@ def test_a_window_does_not_depend_on_how_many_samples_past_its_end_have_arrived(
     np.testing.assert_allclose([d.proba for d in out], [d.proba for d in ref], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_a_jittery_imu_in_chunks_gives_the_decisions_of_one_by_one(all_model, unseen_run):
     """IMU stamps with +-3 ms of jitter, each stream pushed in 1 s chunks: the usual step of
     a stream (its anti-alias filter's rate, the gap rule's reference) was the median of its
@@ -162,6 +165,7 @@ def test_a_jittery_imu_in_chunks_gives_the_decisions_of_one_by_one(all_model, un
     np.testing.assert_allclose([d.proba for d in out], [d.proba for d in ref], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_chunks_spanning_more_than_stale_s_wait_for_the_other_streams(all_model, unseen_run):
     """Both streams pushed in 5 s chunks (IMU chunk, then the wheels' of the same span) with
     ``stale_s = 1``: each IMU chunk made the decisions up to its end minus 1 s due while the
@@ -192,6 +196,7 @@ def test_chunks_spanning_more_than_stale_s_wait_for_the_other_streams(all_model,
     assert late[-1].t_s <= 35.0 - 1.0
 
 
+@pytest.mark.slow
 def test_an_accelerometer_in_g_is_flagged_and_not_classified(all_model, unseen_run):
     # the readers refuse a file in g (rule accel_units); the service classified such a
     # stream as if gravity were 1 m/s^2: now every window is flagged and only predicted
@@ -468,6 +473,7 @@ def test_a_stretch_of_refused_samples_shorter_than_the_backlog_is_still_emitted(
     assert sum("non_finite" in d.flags for d in out) >= 10 / 0.5
 
 
+@pytest.mark.slow
 def test_a_looped_log_restarts_the_clock_and_decides_again(all_model, unseen_run):
     # a log played in a loop (rosbag play -l) or a restarted simulator sends its clock
     # back to the start: every later sample was refused as time_not_increasing and the
@@ -502,6 +508,7 @@ def test_a_restart_is_seen_when_the_buffer_holds_less_than_clock_restart_s(wheel
     assert abs(second[-1].t_s - first[-1].t_s) < 0.5
 
 
+@pytest.mark.slow
 def test_one_far_future_sample_is_refused_as_a_stray_stamp_ahead(all_model, wheel_model,
                                                                  unseen_run):
     # one IMU stamp 10^6 s ahead: before, every later IMU sample was refused and the
@@ -546,6 +553,7 @@ def test_one_far_future_sample_is_refused_as_a_stray_stamp_ahead(all_model, whee
     assert len(clean) >= 0.8 * len(after) and clean[-1].t_s > t_cut + 40
 
 
+@pytest.mark.slow
 def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clock(
         all_model, unseen_run):
     # the wheel clock steps 1 h ahead after 25 s (an NTP step on the wheel computer) while
@@ -578,6 +586,7 @@ def test_one_stream_stepping_its_clock_ahead_alone_is_put_back_on_the_others_clo
     assert any("clock_restart" in d.flags for d in got)
 
 
+@pytest.mark.slow
 def test_a_resend_while_a_step_ahead_is_held_keeps_the_held_run(all_model, unseen_run):
     # the IMU clock steps 847.5 s ahead after 10 s and, 3 s later, its publisher re-sends
     # its newest 14 samples: the re-sent ones broke the held run, whose 313 samples (3 s
@@ -605,6 +614,7 @@ def test_a_resend_while_a_step_ahead_is_held_keeps_the_held_run(all_model, unsee
         [(d.t_s, d.terrain, d.flags) for d in ref]
 
 
+@pytest.mark.slow
 def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, unseen_run):
     # the wheel clock steps 7 s ahead after 25 s: held (over clock_restart_s ahead), but
     # taken as it was once the IMU came within clock_restart_s of it, 2 s later, so every
@@ -627,6 +637,7 @@ def test_a_clock_step_just_longer_than_clock_restart_s_is_put_back(all_model, un
     assert 5.0 < flagged[0] and flagged[-1] < 5.5 + all_model.window.window_s, flagged
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stream", ["imu", "wheels"])
 def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, unseen_run,
                                                                      stream):
@@ -653,6 +664,7 @@ def test_a_clock_stepping_back_less_than_clock_restart_s_is_put_back(all_model, 
                     if round(d.t_s, 6) in ref]) >= 0.95
 
 
+@pytest.mark.slow
 def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unseen_run):
     # a robot loop that fills one preallocated array per stream and pushes it each time:
     # the samples held while the wheel clock's step ahead was told kept views of that
@@ -677,6 +689,7 @@ def test_a_robot_reusing_its_sample_array_changes_no_held_sample(all_model, unse
         [(d.t_s, d.terrain, d.confidence, d.flags) for d in fresh]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("other_clock", ["imu", "wheels"])
 def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_clock(
         all_model, unseen_run, other_clock):
@@ -706,6 +719,7 @@ def test_a_stream_on_another_clock_from_the_start_is_put_on_the_first_streams_cl
     assert np.mean([d.terrain == r.terrain for d, r in zip(after, same)]) >= 0.95
 
 
+@pytest.mark.slow
 def test_a_stream_on_another_clock_delivered_out_of_order_is_still_moved(all_model,
                                                                          unseen_run):
     # the stream arriving second on a clock 1000 s ahead from its first sample, and every
@@ -767,6 +781,7 @@ def _sample_events(run, keep=None, arrival=None):
     return sorted(out, key=lambda e: e[0])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("reach", ["beyond_the_buffer", "its_oldest_sample"])
 def test_a_resend_reaching_back_to_the_buffers_start_or_beyond_moves_no_clock(
         all_model, unseen_run, reach):
@@ -805,6 +820,7 @@ def test_a_resend_reaching_back_to_the_buffers_start_or_beyond_moves_no_clock(
     assert len(after) > 20 and sum(d.flags == "" for d in after) >= 0.9 * len(after)
 
 
+@pytest.mark.slow
 def test_a_stream_silent_through_a_restart_is_put_on_the_new_clock(all_model, unseen_run):
     # the IMU driver restarts its clock at 40 s while the wheels are silent (35-50 s): no
     # stream went on, so every clock restarted; the wheels then came back on their old
@@ -825,6 +841,7 @@ def test_a_stream_silent_through_a_restart_is_put_on_the_new_clock(all_model, un
     assert sum(d.flags == "" for d in last) >= 55
 
 
+@pytest.mark.slow
 def test_a_dead_or_lagging_stream_is_no_clock_to_judge_a_dropout_by(all_model, unseen_run):
     # the IMU dies at 20 s and the wheels drop out for 6 s at 40 s: their return was held
     # as a clock step ahead of the dead IMU, and no decision came for 66 s, then 125 at
@@ -852,6 +869,7 @@ def test_a_dead_or_lagging_stream_is_no_clock_to_judge_a_dropout_by(all_model, u
             assert late and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("stream", ["imu", "wheels"])
 @pytest.mark.parametrize("trickled", [False, True])
 def test_a_backlog_sent_after_the_live_samples_is_refused_not_a_new_clock(
@@ -921,6 +939,7 @@ def _imu_chunks(run, chunk_s, stamp):
             for lo, hi in zip(edges[:-1], edges[1:]) if (sel := (t >= lo) & (t < hi)).any()]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["step inside a chunk", "step after a dropout",
                                   "restart, 2 s chunks", "clock in us"])
 def test_clock_changes_of_a_chunked_imu_are_placed_within_half_a_step(all_model, unseen_run,
@@ -963,6 +982,7 @@ def test_clock_changes_of_a_chunked_imu_are_placed_within_half_a_step(all_model,
                             for d in late) >= 0.95 * len(late)
 
 
+@pytest.mark.slow
 def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen_run):
     # every stream silent for 100 s (a paused robot), the IMU resumes first: its samples
     # are ahead of the wheel clock until the wheels resume, but no clock stepped
@@ -981,6 +1001,7 @@ def test_streams_resuming_after_a_common_silence_are_not_moved(all_model, unseen
     assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.slow
 def test_one_stream_restarting_its_clock_alone_is_put_back_on_the_others_clock(
         all_model, unseen_run):
     # the IMU driver restarts and its device clock starts again (1000 s earlier) while the
@@ -1049,6 +1070,7 @@ def test_late_samples_that_do_not_form_a_new_clock_are_refused(wheel_model, unse
     np.testing.assert_allclose(np.diff([d.t_s for d in out]), 0.5)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("max_chunk", [1, 100])
 def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unseen_run,
                                                                 max_chunk):
@@ -1078,6 +1100,7 @@ def test_an_imu_clock_in_ms_is_refused_as_the_readers_refuse_it(all_model, unsee
     assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("model_name", ["all_model", "wheel_model"])
 def test_every_stream_on_a_clock_in_ms_from_the_start_makes_no_decision(request, model_name,
                                                                         unseen_run):
@@ -1109,6 +1132,7 @@ def test_every_stream_on_a_clock_in_ms_from_the_start_makes_no_decision(request,
     assert len(late) > 40 and sum(d.flags == "" for d in late) >= 0.9 * len(late)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scale", [1e3, 1e6])
 @pytest.mark.parametrize("streams", [("wheels",), ("imu", "wheels")])
 def test_a_clock_switching_to_ms_with_no_stream_to_judge_it_by_runs_no_decision(
@@ -1169,6 +1193,7 @@ def test_a_long_step_in_a_streams_first_samples_is_held_then_taken(wheel_model, 
     assert len([d for d in got if d.t_s > t0 + 20.0]) > 100
 
 
+@pytest.mark.slow
 def test_samples_sent_again_are_refused_as_duplicates_not_taken_for_a_new_clock(
         wheel_model, all_model, unseen_run):
     # a reconnecting publisher re-sends its last 10 s. One stream: it was taken for a
@@ -1283,6 +1308,7 @@ def test_target_providers_and_the_model_loader_refuse_bad_arguments(wheel_model)
         load_stream_model(None)                                     # was a TypeError
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("max_chunk", [1, 7, 500])
 def test_a_stuck_sensor_flags_the_windows_the_readers_rule_flags(all_model, unseen_run,
                                                                  max_chunk):
@@ -1409,6 +1435,7 @@ def test_pandas_inputs_with_different_indexes_are_refused_not_read_by_position(w
     np.testing.assert_array_equal(svc._intake.buffers["wheels"].since(-np.inf)[1], v)
 
 
+@pytest.mark.slow
 def test_a_chunk_longer_than_the_buffer_loses_no_decision(wheel_model):
     """10 000 wheel samples in one push, buffer 4096: the buffer kept only the newest and the
     first 590 s made no decision and no count."""
@@ -1520,6 +1547,7 @@ def test_wheel_speeds_in_kmh_are_flagged_and_not_classified(wheel_model, unseen_
     assert [d.flags for d in push_wheels(service(shipped), kmh)] == [d.flags for d in got]
 
 
+@pytest.mark.slow
 def test_samples_lost_from_a_full_hold_ahead_flag_the_windows_that_would_read_them(
         all_model, unseen_run):
     """The IMU clock steps 847.5 s ahead after 10 s and is held until the wheels tell it

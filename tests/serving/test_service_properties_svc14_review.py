@@ -91,6 +91,7 @@ def _key(decisions):
 
 # ---------------------------------------------------------------- chunking invariance
 
+@pytest.mark.slow
 @settings(FAST, max_examples=40)
 @given(data=st.data(), stream=_stream(), buffer=st.sampled_from([100, 4096]),
        smoothing=st.sampled_from([SmoothingConfig(), SmoothingConfig(dwell_s=None),
@@ -119,6 +120,7 @@ def test_decisions_and_counts_do_not_depend_on_the_chunking(data, stream, buffer
 
 # ---------------------------------------------------------------- accounting, memory, time
 
+@pytest.mark.slow
 @settings(FAST, max_examples=30)
 @given(data=st.data(), stream=_stream(max_size=200), buffer=st.sampled_from([16, 40, 4096]))
 def test_every_sample_pushed_is_buffered_refused_or_held(data, stream, buffer):
@@ -146,6 +148,7 @@ def test_every_sample_pushed_is_buffered_refused_or_held(data, stream, buffer):
     assert refused_by_rules == bad
 
 
+@pytest.mark.slow
 @FAST
 @given(data=st.data(), stream=_stream(), hop=st.sampled_from([0.1, 0.3, 0.5, 1.0]))
 def test_decision_times_rise_strictly_by_whole_hops(data, stream, hop):
@@ -166,6 +169,7 @@ def test_decision_times_rise_strictly_by_whole_hops(data, stream, hop):
         assert times[-1] <= t[-1] + svc.config.stale_s + 1e-9
 
 
+@pytest.mark.slow
 @FAST
 @given(stream=_stream(bad=False, min_size=30))
 # a draw that once failed (found by Hypothesis): 29 samples 0.09375 s apart from 100.09375 s,

@@ -126,6 +126,7 @@ def _chunked(draw, order):
 
 # ---------------------------------------------------------------- chunking, two streams
 
+@pytest.mark.slow
 @FAST
 @given(data=st.data(), streams=_two_streams(),
        smoothing=st.sampled_from([SmoothingConfig(), SmoothingConfig(dwell_s=None),
@@ -145,6 +146,7 @@ def test_two_streams_decide_the_same_one_by_one_and_in_chunks(data, streams, smo
 
 # ---------------------------------------------------------------- time shift
 
+@pytest.mark.slow
 @FAST
 @given(streams=_two_streams(), shift=st.sampled_from([-64.0, 1.0, 37.0, 4096.0]))
 def test_a_shift_of_every_clock_shifts_the_decision_times_and_nothing_else(streams, shift):
@@ -164,6 +166,7 @@ def test_a_shift_of_every_clock_shifts_the_decision_times_and_nothing_else(strea
 
 # ---------------------------------------------------------------- flags and targets
 
+@pytest.mark.slow
 @FAST
 @given(streams=_two_streams(), data=st.data(),
        min_conf=st.sampled_from([0.5, 0.6, 0.9]),
@@ -207,6 +210,7 @@ def test_stale_low_confidence_and_targets_follow_the_documented_rules(
             (want.traction, want.braking, want.steady)
 
 
+@pytest.mark.slow
 @FAST
 @given(streams=_two_streams(), hyst=st.floats(0.05, 0.6))
 def test_the_decided_terrain_changes_only_past_the_hysteresis_margin(streams, hyst):
@@ -223,6 +227,7 @@ def test_the_decided_terrain_changes_only_past_the_hysteresis_margin(streams, hy
                 assert d.proba[new] > d.proba[old] + hyst
 
 
+@pytest.mark.slow
 @settings(FAST, max_examples=10)
 @given(streams=_two_streams(max_size=50), data=st.data())
 def test_the_value_container_of_a_push_changes_no_decision(streams, data):
@@ -246,6 +251,7 @@ def test_the_value_container_of_a_push_changes_no_decision(streams, data):
 
 # ---------------------------------------------------------------- memory
 
+@pytest.mark.slow
 @settings(FAST, max_examples=8)
 @given(seed=st.integers(0, 2**31 - 1), capacity=st.sampled_from([24, 64]))
 def test_memory_stays_bounded_on_a_long_faulty_stream(seed, capacity):

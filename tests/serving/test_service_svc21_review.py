@@ -69,6 +69,7 @@ def test_a_sample_without_a_stamp_is_flagged_where_one_by_one_flags_it_in_any_ch
     assert flags[0][0] == (101.125, "short")
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None,
           suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(data=st.data(), kinds=st.tuples(*[st.sampled_from(["value", "stamp", "range"])] * 2))

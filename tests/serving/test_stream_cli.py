@@ -120,6 +120,7 @@ def test_stream_names_a_run_of_another_vehicle_than_the_models(run_dir, tmp_path
     assert len(pd.read_csv(tmp_path / "d.csv")) > 20
 
 
+@pytest.mark.slow
 def test_stream_and_predict_name_an_imu_slower_than_the_models_windows(
         run_dir, tmp_path, capsys, all_model, wheel_model, monkeypatch):
     # a 50 Hz IMU before a 100 Hz model was interpolated up without a word (CLI fuzz);
@@ -278,6 +279,7 @@ def test_timestamp_errors_print_plain_numbers(run_dir, tmp_path, capsys, wheel_m
     assert "np." not in err and "pro_07.csv" in err
 
 
+@pytest.mark.slow
 def test_stream_reset_options_reach_the_filter(run_dir, tmp_path, capsys, wheel_model,
                                                monkeypatch):
     # the reset at a confidence every window reaches decides each window's own class: the
@@ -383,6 +385,7 @@ def test_stream_min_confidence_sets_when_the_fallback_target_is_used(
         assert row.target_slip_braking == pytest.approx(want.braking, abs=1e-9)
 
 
+@pytest.mark.slow
 def test_predict_counts_the_windows_holding_a_stuck_sensor(run_dir, tmp_path, capsys,
                                                            wheel_model, monkeypatch):
     # predict flags each window holding the stuck channel and its input report counts them

@@ -23,6 +23,7 @@ def _joins(segments) -> int:
     return sum(a.terrain == b.terrain for a, b in zip(segments[:-1], segments[1:]))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("terrains,fewest", [
     # as many SNOW runs as all others together: they can alternate (BorealTC's folds hold
     # 4-6 SNOW runs of 10-11)

@@ -216,6 +216,7 @@ def _score_rows(draw):
     return pd.DataFrame(rows)
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @given(rows=_score_rows())
 def test_pooled_scores_weigh_by_decisions_and_survive_the_csv(rows, tmp_path_factory):

@@ -69,6 +69,7 @@ class _WzClassifier:
         return out
 
 
+@pytest.mark.slow
 def test_offline_scoring_takes_unclassified_windows_as_the_live_service_does():
     # a 20 s stretch of accelerometer in g is not classified live (accel_units: the filter
     # only predicts); stream-eval's unsmoothed replay repeated the last probabilities there

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings, strategies as st
 
 from terrain.io.measured import read_folder_run
@@ -32,6 +33,7 @@ def test_an_outage_that_would_leave_the_camera_under_two_rows_is_not_planted(tmp
     assert len(back.streams["cam"]) == len(run.streams["cam"])
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(steps=st.integers(4, 300), seed=st.integers(0, 2**31 - 1),
        rate=st.floats(0.0, 40.0))

@@ -227,6 +227,7 @@ def test_a_vehicle_at_rest_on_level_ground_stays_at_rest(case):
         assert not p.load_floor_steps.any()
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None)
 @given(case=CASES, v=st.floats(-1.0, 1.0), r=st.floats(0.05, 1.0),
        slope=st.sampled_from((0.0, 0.1)))
@@ -245,6 +246,7 @@ def test_mirrored_commands_give_mirrored_runs(case, v, r, slope):
     np.testing.assert_allclose(right.roll, -left.roll, rtol=0, atol=1e-12)
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None)
 @given(case=CASES, v=st.floats(-1.0, 1.0), r=st.floats(-1.0, 1.0))
 @example(case=("husky", "PACKED_SNOW", "v1"), v=0.0, r=0.3)

@@ -135,6 +135,7 @@ def _replay_steps(monkeypatch, run_id: str, physics: str) -> np.ndarray:
     return np.array(steps, dtype=int)
 
 
+@pytest.mark.slow
 def test_the_v2_replay_of_a_rigid_surface_run_converges_on_every_step(monkeypatch):
     # BorealTC ASPHALT/02 under physics v2 (the tyre's combined-slip law): 26 of its 985 steps
     # stopped unconverged at 50 iterations, the kept iterate swinging v_x between -0.072

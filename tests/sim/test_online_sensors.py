@@ -28,6 +28,7 @@ def _steady_std(vehicle, terrain, seeds=range(6), duration=9.0, after_s=3.0):
     return np.concatenate(batch).std(axis=0), np.concatenate(online).std(axis=0)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle,terrain", [("husky", "SNOW"), ("husky", "ICE"),
                                              ("agrimaro", "GRASS")])
 def test_online_imu_vibration_matches_the_batch_model(vehicle, terrain):
@@ -42,6 +43,7 @@ def test_online_imu_vibration_matches_the_batch_model(vehicle, terrain):
         assert o_std[i] == pytest.approx(b_std[i], rel=0.08), name
 
 
+@pytest.mark.slow
 def test_online_imu_vibration_follows_the_terrain_and_the_speed():
     """The online vibration is the terrain's: SNOW's wx std is several times ICE's; at
     standstill (start of straight_accel, speed 0) only white noise is left."""
@@ -193,6 +195,7 @@ def test_a_controller_correction_of_the_wrong_shape_or_not_finite_is_a_typed_err
     assert np.isfinite(closed.physics.twist).all()
 
 
+@pytest.mark.slow
 def test_the_closed_loop_run_records_the_camera_outages_its_controller_saw():
     """The online camera draws its outages from a generator of its own, so a closed-loop
     controller lost the camera at other times than the run's metadata (the logged streams'

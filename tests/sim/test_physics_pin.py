@@ -37,6 +37,7 @@ PINS = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("physics, terrain", list(PINS))
 def test_simulated_run_matches_its_pin(physics, terrain):
     run = simulate(SimConfig(vehicle="husky", terrains=(terrain,), scenario="random",

@@ -32,6 +32,7 @@ def test_rate_limited_command_reaches_its_target():
     np.testing.assert_allclose(v[100:], 0.5)
 
 
+@pytest.mark.slow
 def test_orchard_u_turn_of_the_tracked_vehicle_is_a_half_turn_of_radius_1_5_m():
     """The orchard's U-turn at 0.95 of the speed limit asked the tracked vehicle's outer
     track for 0.475 (1 + 0.393 / 3) = 0.54 m/s, over its 0.5 m/s limit: the clipped wheel

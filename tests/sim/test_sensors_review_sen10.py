@@ -178,6 +178,7 @@ def test_wheel_lag_holds_the_first_value_until_the_lag_has_passed():
     assert np.all(np.diff(lagged.loc[~early, "vel_l"]) > 0) and lagged["vel_l"].iloc[7] > 0
 
 
+@pytest.mark.slow
 def test_the_steering_encoders_read_within_one_turn():
     # SensorSettings calls the steering encoder a 12-bit absolute encoder, whose reading lies
     # within one turn; until 2026-11-30 the steer stream reported the unwrapped module angle
@@ -196,6 +197,7 @@ def test_the_steering_encoders_read_within_one_turn():
     assert np.abs(err).max() <= 0.5 * q + 1e-9
 
 
+@pytest.mark.slow
 def test_the_agrimaro_estimate_is_as_good_when_its_modules_pass_pi():
     # the filter wraps the steering innovations and its pre-filter averages the encoder
     # unwrapped (ANGLE_ROWS): on a run whose modules pass pi, the estimate from the wrapped

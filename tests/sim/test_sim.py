@@ -41,6 +41,7 @@ def test_zero_slip_rigid_surface_constant_speed():
     assert np.abs(late.yaw_rate).max() < 1e-9
 
 
+@pytest.mark.slow
 def test_pure_rolling_yaw_rate_effects_off(husky_orchard):
     """yaw_rate = (v_R - v_L) / B with the sides' ground speeds (the rim speeds corrected
     by the true slip), and close to the rim-speed kinematics on asphalt."""
@@ -68,6 +69,7 @@ def _chi_hat(result):
     return np.sum(x[m] ** 2) / np.sum(x[m] * wz[m])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("chi", [1.55, 1.7])
 def test_icr_expansion_found_by_regression(chi, husky_orchard):
     """Regressing wz on (velR - velL)/B gives chi times the baseline's own (physical
@@ -79,6 +81,7 @@ def test_icr_expansion_found_by_regression(chi, husky_orchard):
     assert _chi_hat(r) / base == pytest.approx(chi, rel=0.03)
 
 
+@pytest.mark.slow
 def test_gyro_bias_shifts_mean_wz(husky_orchard):
     bias = 0.03
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
@@ -90,6 +93,7 @@ def test_gyro_bias_shifts_mean_wz(husky_orchard):
     assert r.streams["imu"].wz.mean() - truth_mean == pytest.approx(bias, abs=2e-3)
 
 
+@pytest.mark.slow
 def test_wheel_lag_found_by_cross_correlation(husky_orchard):
     base = _best_lag(husky_orchard)
     assert base <= 0.08                        # effect off: no lag beyond half a wheel sample
@@ -98,6 +102,7 @@ def test_wheel_lag_found_by_cross_correlation(husky_orchard):
     assert _best_lag(r) == pytest.approx(0.4, abs=0.08)
 
 
+@pytest.mark.slow
 def test_current_effects_show_their_magnitude(husky_orchard):
     base = husky_orchard.streams["wheels"]
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT",), scenario="orchard",
@@ -115,6 +120,7 @@ def test_current_effects_show_their_magnitude(husky_orchard):
     assert abs(straight) < extra / 2
 
 
+@pytest.mark.slow
 def test_grade_resistance_extra_current_on_slope():
     cfg = dict(vehicle="husky", terrains=("ASPHALT",), scenario="slope_turn", duration_s=40.0,
                seed=2)
@@ -159,6 +165,7 @@ def test_husky_straight_current_matches_measured(terrain):
     assert cur[t > 6.0].mean() == pytest.approx(target, rel=2e-3)
 
 
+@pytest.mark.slow
 def test_thesis_straight_line_steady_slip():
     ranges = {"TILES": (-0.01, 0.01), "GRASS": (0.116, 0.135), "GRAVEL": (0.122, 0.146)}
     for terrain, (lo, hi) in ranges.items():
@@ -183,6 +190,7 @@ def test_dig_in_on_ploughed_but_not_on_asphalt():
     assert out["PLOUGHED"][1] > 0.7               # ...while the wheels keep spinning
 
 
+@pytest.mark.slow
 def test_terrain_changes_along_path():
     r = simulate(SimConfig(vehicle="husky", terrains=("ASPHALT", "SNOW"), scenario="orchard",
                            duration_s=40.0, seed=1, segment_length_m=5.0))
@@ -190,6 +198,7 @@ def test_terrain_changes_along_path():
     assert labels == {"ASPHALT", "SNOW"} and r.meta["terrain"] == "MIXED"
 
 
+@pytest.mark.slow
 def test_reproducible_with_seed():
     a = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=10.0, seed=5))
     b = simulate(SimConfig(vehicle="agrimaro", scenario="random", duration_s=10.0, seed=5))
@@ -218,6 +227,7 @@ EXPECTED = {
 }
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle", ["husky", "agrimaro", "tracked"])
 def test_cli_writes_files_with_exact_columns(tmp_path, vehicle):
     args = ["simulate", "--vehicle", vehicle, "--terrain", "GRASS", "--scenario", "random",
@@ -251,6 +261,7 @@ def test_cli_bad_names_exit_2(tmp_path, capsys):
     assert "valid choices" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_write_run_round_trip(tmp_path, husky_orchard):
     paths = write_run(husky_orchard, tmp_path)
     for name, frame in to_file_frames(husky_orchard).items():
@@ -260,6 +271,7 @@ def test_write_run_round_trip(tmp_path, husky_orchard):
         assert np.allclose(back[num].to_numpy(), frame[num].to_numpy(), rtol=1e-8, atol=1e-9)
 
 
+@pytest.mark.slow
 def test_wheel_rates_and_camera_lever_arm():
     r = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="random",
                            duration_s=30.0, seed=4))
@@ -328,6 +340,7 @@ def test_agrimaro_omega_stream_has_the_speed_quantum_of_the_wheel_stream():
     np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)
 
 
+@pytest.mark.slow
 def test_agrimaro_reported_wheel_speed_is_unbiased_in_cruise():
     res = simulate(SimConfig(vehicle="agrimaro", terrains=("TILES",), scenario="straight_accel",
                              duration_s=20.0, seed=0))
@@ -340,6 +353,7 @@ def test_agrimaro_reported_wheel_speed_is_unbiased_in_cruise():
     assert 0.01 < err.std() < 0.5          # quantisation noise left by the driver filter
 
 
+@pytest.mark.slow
 def test_written_run_reads_back_as_the_simulated_run(tmp_path, husky_orchard):
     """terrain.io writes the simulated Run; the measured-data reader loads the same streams."""
     from terrain.io.measured import read_runs_dir
@@ -358,6 +372,7 @@ def test_written_run_reads_back_as_the_simulated_run(tmp_path, husky_orchard):
     assert back.meta["effects"] == husky_orchard.meta["effects"]
 
 
+@pytest.mark.slow
 def test_validate_sim_command_prints_the_documented_tables(tmp_path, capsys):
     """`terrain validate sim` prints the tables of docs/sim_validation.md."""
     out = tmp_path / "sim.md"
@@ -482,6 +497,7 @@ def test_a_parked_husky_slides_down_15_degree_ice_at_its_sliding_friction():
     assert acc == pytest.approx(-g * (np.sin(th) - mu_locked * np.cos(th)), rel=0.03)
 
 
+@pytest.mark.slow
 def test_camera_outages_are_recorded_in_the_run_metadata():
     """The AgriMaRo's simulated visual-odometry outages drop camera rows; the run's metadata
     did not say when or how many (a 120 s run at 4 outages a minute lost rows the reader
@@ -504,6 +520,7 @@ def test_camera_outages_are_recorded_in_the_run_metadata():
     assert "cam_outages_s" not in husky.meta          # no camera on the Husky
 
 
+@pytest.mark.slow
 def test_a_full_terrain_folder_is_refused_as_full(tmp_path, husky_orchard):
     """With the indexes 00-99 of a folder taken, write_run chose index 100 itself and then
     refused it with "run index must be in [0, 99], got 100", an index the user never gave.
@@ -561,6 +578,7 @@ def test_parse_effects_refuses_a_boolean_or_none_in_a_mapping():
         "wheel_lag": 0.5, "gyro_bias": 0.1}
 
 
+@pytest.mark.slow
 def test_reported_currents_are_magnitudes_even_where_the_noise_exceeds_the_current():
     """The wheel stream reports |current + noise|: with a noise (3 A) above the Husky's
     currents (1-4 A) no sample is negative, and the noise shows (the same seed without it
@@ -578,6 +596,7 @@ def test_reported_currents_are_magnitudes_even_where_the_noise_exceeds_the_curre
     assert diff.mean() > 0.1
 
 
+@pytest.mark.slow
 def test_steering_offsets_are_drawn_both_ways_inside_the_dead_band():
     """Each AgriMaRo module's steering offset is uniform in +-dead band (seed 001 ch. 6.1.1):
     over seeds 0..9 both signs occur and the mean is near 0 (an offset drawn only positive
@@ -593,6 +612,7 @@ def test_steering_offsets_are_drawn_both_ways_inside_the_dead_band():
     assert offsets.std() > 0.4 * db             # uniform in +-db: std db / sqrt(3)
 
 
+@pytest.mark.slow
 def test_camera_outages_last_half_a_second_to_two_seconds_at_the_configured_rate():
     """Outages arrive at ``cam_outage_rate_hz`` (Poisson: 60 +- 8 in 60 s at 1 Hz) and last
     uniformly 0.5 to 2 s (mean 1.25 s), starting anywhere in the run (half the rate, or

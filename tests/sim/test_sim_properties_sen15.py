@@ -32,6 +32,7 @@ QUIET = dict(gyro_noise_rad_s=0.0, accel_noise_m_s2=0.0, accel_bias_std_m_s2=0.0
              cam_yaw_rate_noise_rad_s=0.0, cam_yaw_noise_rad=0.0, cam_outage_rate_hz=0.0)
 
 
+@pytest.mark.slow
 @settings(max_examples=25, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), scenario=st.sampled_from(SCENARIO_NAMES),
        steps=st.integers(16, 400), seed=st.integers(0, 2**31 - 1))
@@ -61,6 +62,7 @@ def test_every_stream_has_its_rate_and_increasing_times_for_any_duration_and_see
                                   .to_numpy(float))), name
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), scenario=st.sampled_from(SCENARIO_NAMES),
        seed=st.integers(0, 2**31 - 1))
@@ -85,6 +87,7 @@ def _quiet_sensors(vehicle, **extra):
                              **QUIET, **extra})
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), scenario=st.sampled_from(SCENARIO_NAMES),
        seed=st.integers(0, 1000), bias=st.floats(-0.5, 0.5))
@@ -119,6 +122,7 @@ def test_noiseless_sensors_read_the_true_signal(vehicle, scenario, seed, bias):
                               .to_numpy(), interp_columns(ts, phys.t_s, phys.delta))
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), seed=st.integers(0, 1000))
 def test_noiseless_reported_speeds_are_the_true_ones_to_their_quantum(vehicle, seed):
@@ -188,6 +192,7 @@ def test_scenario_commands_start_at_rest_and_respect_the_speed_and_rate_limits(
     assert np.all(yaw_acc <= {"orchard": 2.0, "slope_turn": 1.0}.get(name, 1.5) + 1e-6)
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), scenario=st.sampled_from(SCENARIO_NAMES),
        seed=st.integers(0, 2**31 - 1),
@@ -216,6 +221,7 @@ def test_simulate_write_read_is_a_round_trip_of_every_stream_and_meta_field(
     assert back.vehicle == run.vehicle and back.terrain == run.terrain
 
 
+@pytest.mark.slow
 @settings(max_examples=15, deadline=None)
 @example(vehicle="husky", wheel=100.0, imu_rate=100.0, cam=1.0, steer=1.0, truth=100.0,
          physics=50.0)      # every Husky stream faster than the physics: one step, 3 samples
@@ -242,6 +248,7 @@ def test_the_minimum_duration_gives_two_samples_of_every_stream_and_one_step_les
                       sensors=sensors, physics_rate_hz=physics)
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None)
 @given(vehicle=st.sampled_from(VEHICLE_NAMES), physics=st.sampled_from(["v1", "v2"]),
        v=st.floats(0.05, 0.6), r=st.floats(-0.6, 0.6), vy=st.floats(-0.15, 0.15))

@@ -50,6 +50,7 @@ def _integrate(vehicle, terrain, t, twist, slope=0.0, physics="v1", hook=None):
                      slope, 1.0, hook=hook, physics=physics)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None)
 @given(vehicle=st.sampled_from(sorted(VEHICLES)), terrain=st.sampled_from(TERRAIN_NAMES),
        physics=st.sampled_from(("v1", "v2")), wait=st.integers(1, 40),
@@ -70,6 +71,7 @@ def test_a_run_that_waits_at_rest_is_the_run_shifted_by_the_wait(
         np.testing.assert_allclose(got[wait:], want, rtol=1e-9, atol=1e-9, err_msg=name)
 
 
+@pytest.mark.slow
 @settings(max_examples=8, deadline=None)
 @given(vehicle=st.sampled_from(sorted(VEHICLES)), offset=st.floats(-1000.0, 1000.0),
        v=st.floats(-0.8, 0.8), r=st.floats(-0.8, 0.8))
@@ -85,6 +87,7 @@ def test_moving_the_time_grid_changes_nothing_but_the_rounding(vehicle, offset, 
                                    atol=1e-6, err_msg=name)
 
 
+@pytest.mark.slow
 @settings(max_examples=10, deadline=None)
 @given(terrain=st.sampled_from(TERRAIN_NAMES), physics=st.sampled_from(("v1", "v2")),
        v=st.floats(-0.8, 0.8), vy=st.floats(-0.5, 0.5), r=st.floats(-0.8, 0.8))
@@ -108,6 +111,7 @@ def test_the_swerve_drive_mirrored_front_to_back_gives_the_mirrored_run(
     np.testing.assert_allclose(mir.torque, -run.torque[:, swap], rtol=0, atol=tol)
 
 
+@pytest.mark.slow
 @settings(max_examples=12, deadline=None)
 @given(vehicle=st.sampled_from(sorted(VEHICLES)), terrain=st.sampled_from(TERRAIN_NAMES),
        physics=st.sampled_from(("v1", "v2")), slope=st.floats(0.02, 0.3))
@@ -160,6 +164,7 @@ def short_runs():
             for v in ("husky", "agrimaro")}
 
 
+@pytest.mark.slow
 @settings(max_examples=6, deadline=None)
 @given(vehicle=st.sampled_from(("husky", "agrimaro")),
        rates=st.tuples(*(st.sampled_from((100.0, 50.0, 20.0, 10.0, 7.0, 3.0, 1.0)),) * 2))

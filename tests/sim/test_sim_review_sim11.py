@@ -152,6 +152,7 @@ def test_vibration_pole_refuses_a_rate_or_corner_it_cannot_use(rate_hz, bandwidt
     assert vibration_pole(100.0, 0.0) == 1.0
 
 
+@pytest.mark.slow
 def test_batch_camera_noise_has_its_std_on_each_channel():
     """The simulated T265 stream is the camera point's velocity, the yaw rate and the yaw
     plus white noise of std cam_noise_m_s, cam_noise_m_s, cam_yaw_rate_noise_rad_s and

@@ -70,6 +70,7 @@ def _spin_end(rate_rad_s, dt):
     return p.twist[-1, 2], p.slip_motor[-1, 1]
 
 
+@pytest.mark.slow
 def test_the_default_step_decides_a_spin_out_as_the_converged_model_does():
     # sim17, fixed 2026-11-30 by iterating the implicit-Euler step to convergence: a spin in
     # place on a peaked traction curve is bistable (gripping, slip 0.02, or spun out, slip
@@ -81,6 +82,7 @@ def test_the_default_step_decides_a_spin_out_as_the_converged_model_does():
     assert rate == pytest.approx(fine_rate, rel=0.1)
 
 
+@pytest.mark.slow
 def test_the_spin_out_is_a_property_of_the_model_away_from_its_threshold():
     # below and above the band both steps agree: grip at 0.3, spun out at 0.45 rad/s
     for rate_cmd, gripping in ((0.3, True), (0.45, False)):
@@ -104,6 +106,7 @@ def test_a_command_exactly_at_the_speed_limit_is_not_counted_as_clipped(vehicle)
     np.testing.assert_array_equal(omega[:3], [[wmax, wmax], [wmax, wmax], [-wmax, -wmax]])
 
 
+@pytest.mark.slow
 def test_the_simulator_digest_covers_every_module_a_simulation_imports():
     # kills a SIMULATOR_MODULES without terrain.errors: an edit of a module the simulator
     # imports must invalidate the caches of simulated runs

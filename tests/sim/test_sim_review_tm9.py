@@ -109,6 +109,7 @@ def test_a_vehicle_stopping_on_level_ground_never_gains_kinetic_energy(vehicle, 
     assert stop[-1] < 1e-3 * stop[0]                       # and it stopped
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle, terrain, physics", [
     ("husky", "ASPHALT", "v2"), ("husky", "SANDY_LOAM", "v2"), ("tracked", "SNOW", "v1")])
 def test_the_run_converges_as_the_step_shrinks(vehicle, terrain, physics):

@@ -64,6 +64,7 @@ def test_a_grade_beyond_the_grip_slides_the_vehicle_at_the_textbook_acceleration
         np.testing.assert_allclose(np.diff(v) / dt, expected, rtol=1e-6)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("vehicle", ["husky", "tracked", "agrimaro"])
 def test_a_creeping_command_never_drives_the_body_backwards_nor_past_the_command(vehicle):
     # near 0 the slip's denominator is floored and the resistances are regularised by
@@ -116,6 +117,7 @@ def _run_digest(vehicle: str) -> str:
     return h.hexdigest()
 
 
+@pytest.mark.slow
 def test_a_run_is_bit_for_bit_the_same_in_a_fresh_interpreter():
     # nothing may depend on the hash seed (set or dict order of strings), on the global
     # random stream or on what ran before in this process
@@ -169,6 +171,7 @@ def _ice_ramp(dt: float):
                      1.0)
 
 
+@pytest.mark.slow
 def test_a_ramp_at_the_friction_limit_of_ice_follows_the_converged_run_at_100_hz():
     # sim24, fixed 2026-11-30 by iterating the implicit-Euler step to convergence
     # (terrain.sim.dynamics.implicit_euler_step): the linearly implicit step alone chattered
@@ -182,6 +185,7 @@ def test_a_ramp_at_the_friction_limit_of_ice_follows_the_converged_run_at_100_hz
     assert np.abs(p.accel_body[:, 0] - accel).max() < 0.05
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("t0", [1.7e9, 86_400.0 * 365])
 def test_a_grid_on_a_clock_far_from_zero_integrates_its_own_span(t0):
     # an epoch clock (1.7e9 s) stores 10 ms steps to 2.4e-7 s: the first step alone (the

@@ -136,6 +136,7 @@ def _left_turn_signs(run) -> tuple[float, float, float, float]:
     return corr, cur, float(imu["az"].mean()), float(np.abs(imu["wz"]).mean())
 
 
+@pytest.mark.slow
 def test_a_simulated_left_turn_has_the_signs_of_a_measured_left_turn(borealtc_runs):
     """BorealTC's Husky turns left (``vel_r > vel_l``) with ``wz > 0``, reports current
     magnitudes (>= 0) and reads ``az = +g`` at rest; the simulated Husky's files follow
@@ -181,6 +182,7 @@ def test_the_imu_senses_the_specific_force_the_integrator_applies(slope, yaw):
 
 # --- terrain simulate's files read back with the simulator's values -------------------------
 
+@pytest.mark.slow
 def test_a_mixed_agrimaro_run_reads_back_with_the_simulators_values(tmp_path):
     """Every stream (camera rows missing in outages, the per-sample terrain labels of a
     MIXED run included) and every metadata field the simulator wrote come back from

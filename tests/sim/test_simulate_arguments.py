@@ -154,6 +154,7 @@ def test_repeated_effect_is_refused(tmp_path, capsys):
     assert "icr_expansion given twice" in line
 
 
+@pytest.mark.slow
 def test_a_listed_terrain_the_path_never_reaches_is_named(tmp_path, capsys):
     # a spin in place covers no distance: the second terrain of the list never comes, and the
     # run (folder MIXED, meta "terrains" as listed) holds the first only; said in a note
@@ -200,6 +201,7 @@ def test_grade_resistance_on_level_ground_is_refused(tmp_path, capsys):
     assert not any(tmp_path.iterdir())
 
 
+@pytest.mark.slow
 def test_write_run_refuses_an_index_of_a_measured_run_and_unreadable_stream_names(tmp_path):
     # measured runs have no meta_XX.json: index 3 overwrote their pro_03.csv
     from dataclasses import replace
@@ -278,6 +280,7 @@ def test_sensor_settings_and_effects_refuse_text_and_none(cls, kwargs):
     assert parse_effects(["gyro_bias=0.1"]).gyro_bias == 0.1
 
 
+@pytest.mark.slow
 def test_wheel_commands_clipped_at_the_speed_limit_are_counted_and_said(tmp_path, capsys):
     # the random scenario's segments (speed up to 0.95 of the limit, yaw rate up to 0.8 rad/s)
     # ask the outer side for more than the wheel speed limit: the Husky's seed 1 asks the
@@ -319,6 +322,7 @@ def test_an_effect_item_with_two_equals_signs_is_refused():
         parse_effects(["gyro_bias=0.1=0.2"])
 
 
+@pytest.mark.slow
 def test_segment_m_with_one_terrain_is_said_not_silently_ignored(tmp_path, capsys):
     # --segment-m sets where the terrain changes along the path: with one terrain it changed
     # nothing and nothing said so (estimate says so of an option for the other vehicle kind)

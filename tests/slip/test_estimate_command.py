@@ -27,6 +27,7 @@ def run_dir(tmp_path_factory):
     return root
 
 
+@pytest.mark.slow
 def test_one_file_per_run_with_states_slip_innovations_and_nis(run_dir, tmp_path, capsys):
     assert main(["estimate", str(run_dir), "--out", str(tmp_path / "states.csv")]) == 0
     agri = pd.read_csv(tmp_path / "states_GRASS_00.csv")
@@ -48,6 +49,7 @@ def test_one_file_per_run_with_states_slip_innovations_and_nis(run_dir, tmp_path
     assert "(agrimaro)" in out and "(husky)" in out
 
 
+@pytest.mark.slow
 def test_select_one_run_or_a_terrain_folder(run_dir, tmp_path):
     out = tmp_path / "one.csv"
     assert main(["estimate", str(run_dir), "--run", "ASPHALT/00", "--out", str(out)]) == 0
@@ -64,6 +66,7 @@ def test_unknown_run_is_a_clear_error(run_dir, tmp_path, capsys):
     assert "no run 'SNOW/07'" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_the_lag_note_counts_the_runs_as_their_summaries_say(run_dir, tmp_path, capsys):
     # the closing note counts each run by what its own summary line says about the lag; a
     # summary says "encoder lag 0.032 s" when applied (the test looked for "encoder lag
@@ -108,6 +111,7 @@ def test_tuning_option_reaches_the_agrimaro_filter(run_dir, tmp_path):
                            equal_nan=True)
 
 
+@pytest.mark.slow
 def test_a_run_the_estimator_refuses_leaves_the_others_their_tables(
         run_dir, tmp_path, capsys, monkeypatch):
     # the readers refuse a bad folder before any run is estimated; a refusal of the estimator

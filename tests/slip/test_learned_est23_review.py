@@ -39,6 +39,7 @@ def test_a_failed_refit_leaves_the_fitted_model_as_it_was():
     assert sorted(vars(m)) == before[3]
 
 
+@pytest.mark.slow
 def test_refit_forgets_the_first_fit_and_copies_are_independent():
     XA, yA, gA = _data(400, 5, 1)
     XB, yB, gB = _data(400, 3, 2)

@@ -178,6 +178,7 @@ def test_observer_finds_no_slip_in_slip_free_turning():
     assert s[-1, 0] < -0.01 and s[-1, 1] > 0.1
 
 
+@pytest.mark.slow
 def test_targets_and_features_on_simulated_runs(tiny_table):
     runs, X, Y, meta = tiny_table
     assert len(X) == len(Y) == len(meta) > 0
@@ -424,6 +425,7 @@ def test_physics_slip_columns_take_each_input_from_its_own_window_statistic():
     assert abs(steady.slip[0, 0] - want.slip[0, 0]) > 1e-3
 
 
+@pytest.mark.slow
 def test_learned_model_on_held_out_seed(tiny_table):
     runs, X, Y, meta = tiny_table
     test = (meta["seed"] == 100).to_numpy()
@@ -871,6 +873,7 @@ def _named_table(n=300, seed=0):
     return X, y
 
 
+@pytest.mark.slow
 def test_slip_model_refuses_a_table_whose_columns_differ_from_those_it_was_fitted_on():
     # the model kept no column names: the same table with cur_l__mean and cur_r__mean
     # swapped predicted slip_1 0.0093 -> -0.0116 and slip_2 -0.0114 -> 0.0131 on its first

@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from pipelines.validation.harness import simulate_husky, truth_on_grid
 from terrain.sim import Effects, SimConfig, simulate_with_physics
 from terrain.slip import estimate_run
 
 
+@pytest.mark.slow
 def test_skid_steer_slip_with_the_lag_applied_beats_no_lag():
     # wheels planted 0.4 s late: the slip must take the wheel sample of t + lag (moving the
     # wheel times the other way doubles the misalignment); RMS 0.105 against 0.169

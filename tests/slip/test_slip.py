@@ -195,6 +195,7 @@ def test_lag_compensation_by_cross_correlation_beats_the_ema():
     assert errs["ema"] <= errs["none"] + 1e-9
 
 
+@pytest.mark.slow
 def test_husky_run_gives_side_slips_and_recovers_wheel_lag():
     result = simulate_husky("ASPHALT", seed=2, duration_s=30.0, icr_expansion=1.0)
     est = estimate_run(result.run)
@@ -238,6 +239,7 @@ def test_bad_options():
         estimate_run(run, settings=object())
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scenario", ["orchard", "spin"])
 def test_agrimaro_slip_std_covers_the_error_with_the_encoder_noise(scenario):
     # the raw rim speed enters the slip unfiltered (ch. 7.2): its noise belongs in std_slip
@@ -259,6 +261,7 @@ def test_agrimaro_slip_std_covers_the_error_with_the_encoder_noise(scenario):
         assert np.mean(np.abs(z[ok]) < 2.0) > 0.85, j
 
 
+@pytest.mark.slow
 def test_agrimaro_slip_in_the_dead_band_has_no_std_and_is_counted():
     # at the start of the run both speeds are below the 0.05 m/s dead band: the slip is 0
     # by the thesis's convention (ch. 7.2.1) while the physics' slip reaches 0.2 there, so
@@ -280,6 +283,7 @@ def test_agrimaro_slip_in_the_dead_band_has_no_std_and_is_counted():
     assert frame["std_slip_1"].isna().sum() == no_std[:, 0].sum()
 
 
+@pytest.mark.slow
 def test_agrimaro_slip_at_the_clip_keeps_a_std():
     # a spin's reversals put the estimated slip at the +-1 clip for a few steps; the
     # propagation runs through the unclipped ratio, so the std there is not 0 (it was)

@@ -78,6 +78,7 @@ def test_std_is_never_below_its_floor():
     np.testing.assert_allclose(std, 0.002)
 
 
+@pytest.mark.slow
 def test_calibration_report_is_out_of_fold_for_the_variance_shape_too():
     """Gaussian slip noise: with the median normalised squared residual pinned at the
     chi-square(1) median, the mean is the Gaussian's 1 or more (the variance shape's own

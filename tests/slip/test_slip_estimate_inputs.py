@@ -14,6 +14,7 @@ from terrain.sim import Effects, SimConfig, simulate_with_physics
 from terrain.slip.estimate import estimate_skid_steer_slip_run
 
 
+@pytest.mark.slow
 def test_slip_augmented_estimate_moves_the_lagged_wheels_back_by_the_applied_lag():
     # wheels planted 0.4 s late: the slip-augmented EKF must take the wheel sample of
     # t + lag (speed RMS 0.022 m/s against 0.124 without the lag; moving the wheel times the
@@ -37,6 +38,7 @@ def test_slip_augmented_estimate_moves_the_lagged_wheels_back_by_the_applied_lag
     assert errs["xcorr"] < 0.4 * errs["none"], errs
 
 
+@pytest.mark.slow
 def test_slip_augmented_estimate_leaves_a_lag_without_a_clear_peak_unapplied(borealtc_runs):
     # SANDY_LOAM/07: whole-run peak at -0.33 s, correlation far below the gate: the estimate
     # must be that of lag="none" (applying it would move the wheels by a third of a second)
@@ -93,6 +95,7 @@ def test_noise_tuning_takes_the_accelerometer_noise_measured_on_the_run():
     assert np.sqrt(agrimaro_settings(_imu_run(51, 0.3)).r_diag[3]) < 0.6
 
 
+@pytest.mark.slow
 def test_a_full_slip_window_side_enters_as_the_centre_of_its_physics_interval():
     # every window-side at full slip (+1) with the interval [0.2, 0.4]: the slip the filter
     # settles on is the centre 0.3 (the upper end would read 0.4, the bound +1 itself 1)

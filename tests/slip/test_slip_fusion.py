@@ -53,6 +53,7 @@ def _truth(run, t, cols):
     return np.column_stack([np.interp(t, tr["t_s"], tr[c]) for c in cols])
 
 
+@pytest.mark.slow
 def test_fused_slip_is_near_truth_where_the_plain_ekf_reads_zero(sandy):
     _, run = sandy
     outputs = slip_model_outputs(run)
@@ -67,6 +68,7 @@ def test_fused_slip_is_near_truth_where_the_plain_ekf_reads_zero(sandy):
     assert "not observable" in fused.notes[0] and "physics" in fused.notes[0]
 
 
+@pytest.mark.slow
 def test_nees_inside_chi_square_bounds_with_the_simulation_noise_model(sandy):
     """In simulation the motor and terrain constants are exact: the physics slip's only
     error sources are the current noise and the window model, so its parameter
@@ -85,6 +87,7 @@ def test_nees_inside_chi_square_bounds_with_the_simulation_noise_model(sandy):
     assert test.inside, test
 
 
+@pytest.mark.slow
 def test_cli_writes_std_columns_and_prints_the_unobservability_note(sandy, tmp_path, capsys,
                                                                     monkeypatch):
     root, _ = sandy
@@ -128,6 +131,7 @@ def test_pseudo_measurement_takes_the_calibrated_learned_std():
     np.testing.assert_allclose(vf[0], 0.002)                        # the better one's std
 
 
+@pytest.mark.slow
 def test_scaled_slip_drift_makes_the_filter_std_proportional_to_the_pseudo_std(sandy):
     """``slip_psd_rel``: drift density ``slip_psd + slip_psd_rel std^2``. With no constant
     part the steady slip variance is proportional to the pseudo-measurement variance, so a
@@ -261,6 +265,7 @@ def test_fused_std_with_an_error_correlation():
         FusionSettings(error_correlation=1.5)
 
 
+@pytest.mark.slow
 def test_physics_slip_noise_averages_the_runs_own_wheel_rate(tmp_path):
     # a window mean of 15 Hz currents averages 30.5 samples, of 6.5 Hz ones 13.5
     # (terrain.io.align.interpolated_mean_count): the current-noise std of the physics slip
@@ -286,6 +291,7 @@ def test_physics_slip_noise_averages_the_runs_own_wheel_rate(tmp_path):
     np.testing.assert_allclose(std[15.0] / std[6.5], expected, rtol=0.03)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("key,n_full", [("SANDY_LOAM/07", 90), ("SNOW/05", 42)])
 def test_full_slip_windows_of_measured_soft_ground_keep_the_slip_in_range(borealtc_runs, key,
                                                                           n_full):
@@ -380,6 +386,7 @@ def test_speed_bounds_are_the_ground_speeds_the_held_rim_speeds_allow():
         speed_bounds_m_s(t, wheels, -1.0, 0.1)
 
 
+@pytest.mark.slow
 def test_the_speed_no_longer_runs_off_on_a_measured_snow_reversal(borealtc_runs):
     """BorealTC SNOW/06: at its two reversals the speed and the slips ran off together along
     the direction the wheels cannot see (v (1 - s) = omega r), the slip reading the reverse
@@ -407,6 +414,7 @@ def test_the_speed_no_longer_runs_off_on_a_measured_snow_reversal(borealtc_runs)
     assert not any("projected back" in n for n in off.notes)
 
 
+@pytest.mark.slow
 def test_learned_slip_outputs_refuse_a_model_fitted_on_the_features_in_another_order(tmp_path):
     # slip_model_outputs handed the model a bare array: a model whose feature columns were
     # in another order predicted from the wrong columns without a word

@@ -326,6 +326,7 @@ table_rows = st.lists(st.tuples(st.sampled_from(["ICE", "SAND", "MUD"]),
                                 st.floats(0.0, 0.5)), min_size=1, max_size=40)
 
 
+@pytest.mark.slow
 @FAST
 @given(rows=table_rows)
 def test_error_table_is_the_direct_numpy_median_and_p90(rows):
@@ -417,6 +418,7 @@ def test_physics_slip_is_mirror_symmetric_odd_in_travel_and_row_by_row(seed, n, 
     assert np.all(np.abs(a.slip) <= 1.0) and np.all(a.std >= 0.0)
 
 
+@pytest.mark.slow
 @settings(max_examples=3, deadline=None)
 @given(seed=st.integers(0, 10_000))
 def test_slip_regressor_does_not_depend_on_the_order_of_its_training_windows(seed):

@@ -84,6 +84,7 @@ def test_lag_gate_refuses_a_peak_just_below_min_correlation_and_takes_one_just_a
     assert refused.lag_s == pytest.approx(0.2, abs=0.02)
 
 
+@pytest.mark.slow
 def test_husky_side_slip_with_an_applied_wheel_lag_follows_the_truth():
     # the applied lag moves the wheel samples back by it before the rim speeds are resampled
     # onto the filter's grid: the side slips then follow the truth as on the run without a

@@ -154,6 +154,7 @@ def _fit(X, y, groups, **kw):
                              **kw).fit(X, y, groups=groups)
 
 
+@pytest.mark.slow
 def test_learned_round_trips_bit_for_bit():
     """pickle and skops (the logged format) round trips, and a refit with the same seed,
     predict (compiled and reference path) and predict_std bit for bit."""
@@ -175,6 +176,7 @@ def test_learned_round_trips_bit_for_bit():
         assert other.calibration_ == m.calibration_
 
 
+@pytest.mark.slow
 def test_learned_metamorphic_rows_sides_columns():
     """Row order changes the fit at rounding level only; swapping the sides' targets swaps
     the predicted sides (the std is one per window: unchanged); a column permutation of the
@@ -195,6 +197,7 @@ def test_learned_metamorphic_rows_sides_columns():
     np.testing.assert_allclose(c.predict_std(X[cols]), s, rtol=1e-9, atol=1e-15)
 
 
+@pytest.mark.slow
 def test_learned_run_ids_change_no_prediction():
     """Run ids only group the calibration folds: any renaming leaves the predictions as
     they are, and a renaming that keeps their sorted order leaves the std too."""

@@ -25,6 +25,7 @@ from terrain.slip.odometry import dead_reckon
 FAST = settings(max_examples=30, deadline=None)
 
 
+@pytest.mark.slow
 @FAST
 @given(n_groups=st.integers(2, 4), per_group=st.integers(2, 4), seed=st.integers(0, 999))
 def test_leave_one_out_of_one_target_per_window_is_one_prediction_per_window(
@@ -273,6 +274,7 @@ def test_odometry_errors_refuse_a_run_given_twice():
         odometry_errors(runs, meta, pred, 0.55, ids)
 
 
+@pytest.mark.slow
 @FAST
 @given(seed=st.integers(0, 99), reverse=st.booleans())
 def test_odometry_errors_do_not_depend_on_run_names_or_their_order(seed, reverse):

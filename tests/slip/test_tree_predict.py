@@ -128,6 +128,7 @@ def test_slip_regressor_compiled_predict_equals_reference(one_run):
     assert np.all(model.predict(X)[:, 2] == model.chi_default_)
 
 
+@pytest.mark.slow
 def test_calibrated_std_recovers_planted_heteroscedastic_noise():
     """Slip noise planted 0.004 where feature 0 < 0 and 0.02 where > 0: the std calibrated on
     grouped out-of-fold residuals follows it (and is NaN without groups)."""

@@ -142,6 +142,7 @@ def _spin_torque(hold_at_peak: bool) -> float:
     return _turning_torque(_v2_spin("FLOORING", hold_at_peak=hold_at_peak))
 
 
+@pytest.mark.slow
 def test_spin_torque_follows_the_held_friction():
     # sliding contacts: the drive torque of a spin is proportional to the friction at the
     # contacts' resultant slip (s_L = (chi - 1) / chi, s_S = (a / b) / chi, past the peak),
@@ -177,6 +178,7 @@ def test_tyre_friction_scale_scales_the_burckhardt_friction_and_keeps_its_peak_s
         tyre.surface_curve("ICE", get_terrain("SANDY_LOAM").curve)
 
 
+@pytest.mark.slow
 def test_simulated_ice_spin_current_rises_with_the_tyre_friction_and_chi_does_not():
     def spin(scale):
         p = _v2_spin("ICE", friction_scale=MappingProxyType({"ICE": scale}))

@@ -124,6 +124,7 @@ def test_janosi_force_is_affine_in_the_normal_load(c, phi, k, w1, w2, s):
                                                   abs=1e-9)
 
 
+@pytest.mark.slow
 @settings(max_examples=40, deadline=None)
 @given(name=st.sampled_from(TERRAIN_NAMES), d1=st.floats(-0.2, 1.2), d2=st.floats(-0.2, 1.2))
 def test_steady_slip_balances_the_demand_and_grows_with_it(name, d1, d2):
@@ -137,6 +138,7 @@ def test_steady_slip_balances_the_demand_and_grows_with_it(name, d1, d2):
         assert net == pytest.approx(lo, abs=1e-8)
 
 
+@pytest.mark.slow
 @settings(max_examples=30, deadline=None)
 @given(f=st.floats(0.02, 0.2), s_ss=st.floats(0.02, 0.3), ratio=st.floats(1.05, 3.0))
 def test_calibrate_janosi_round_trips_its_two_slips(f, s_ss, ratio):

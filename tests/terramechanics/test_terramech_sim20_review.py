@@ -138,6 +138,7 @@ CURVES = st.one_of(
     st.builds(BrixiusCurve, st.floats(5.0, 100.0)))
 
 
+@pytest.mark.slow
 @settings(max_examples=60, deadline=None)
 @example(curve=BurckhardtCurve(1.0, 1.0, 0.0), soil=2.1914474387390497e-11, hyst=0.0,
          demand=0.0, frac=0.5)

@@ -18,6 +18,7 @@ def _wrap(a):
     return (np.asarray(a) + np.pi) % (2.0 * np.pi) - np.pi
 
 
+@pytest.mark.slow
 @settings(deadline=None, max_examples=300)
 @given(twist=twists, prev=angles)
 def test_inverse_then_forward_returns_the_twist_and_every_unit_rolls(twist, prev):

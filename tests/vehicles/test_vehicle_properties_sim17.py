@@ -21,6 +21,7 @@ import numpy as np
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from numba import njit
+import pytest
 
 from terrain.vehicles import HUSKY, TRACKED
 from terrain.vehicles.common import wrap_angle
@@ -86,6 +87,7 @@ def test_swapping_the_sides_reverses_the_yaw_rate_and_keeps_the_speed(rows, trac
     np.testing.assert_array_equal(w_m, -w)
 
 
+@pytest.mark.slow
 @settings(max_examples=150, deadline=None)
 @given(rows=samples, scale=st.floats(0.01, 100.0), mirror=st.booleans())
 def test_icr_fits_are_blind_to_mirror_and_common_scale(rows, scale, mirror):

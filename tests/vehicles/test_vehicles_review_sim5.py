@@ -48,6 +48,7 @@ def test_agrimaro_geometry_refuses_a_boolean_coordinate(field, value):
         replace(AGRIMARO, **{field: value})
 
 
+@pytest.mark.slow
 def test_tracked_turning_resistance_converges_with_the_track_discretisation():
     # the docstring said no physical quantity depends on n_segments; one point per track has
     # no turning resistance (it spins at the commanded rate), 5 points are within 5 % of 20
