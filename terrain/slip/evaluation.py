@@ -7,7 +7,7 @@ on both sides).
 
 Steady straight driving (the issue's target condition): windows of ``straight_accel`` runs that
 start after the 1 m/s^2 ramp (``t_start_s >= STEADY_AFTER_S``) with true |yaw rate| below
-``0.05`` rad/s.
+:data:`STRAIGHT_MAX_YAW_RATE_RAD_S` (0.05 rad/s).
 """
 
 from __future__ import annotations
@@ -29,6 +29,10 @@ from terrain.slip.odometry import dead_reckon
 SLID_OFF_FACTOR = 3.0
 #: Windows of straight_accel runs starting after this time are steady, s.
 STEADY_AFTER_S = 3.0
+#: A window whose mean |yaw rate| is below this drives straight, rad/s: the steady windows
+#: (:func:`steady_straight`, true yaw rate), the windows eq. 22's baseline is fitted on and
+#: :func:`measured_checks`' straight windows (gyro yaw rate).
+STRAIGHT_MAX_YAW_RATE_RAD_S = 0.05
 #: Range a predicted turning factor chi is clipped to before it divides the wheel yaw rate
 #: (:func:`odometry_errors`, :func:`measured_checks`): a skid-steer chi is ~1.5-3
 #: (:mod:`terrain.slip.odometry`); a prediction outside it (e.g. near 0 in straight driving,
@@ -121,7 +125,7 @@ def steady_straight(meta: pd.DataFrame, yaw_rate_rad_s: np.ndarray) -> np.ndarra
                          f"(one per window of meta), got {yaw.shape}")
     return ((meta["scenario"].to_numpy() == "straight_accel")
             & (meta["t_start_s"].to_numpy() >= STEADY_AFTER_S)
-            & (np.abs(yaw) < 0.05))
+            & (np.abs(yaw) < STRAIGHT_MAX_YAW_RATE_RAD_S))
 
 
 def fit_predict(make_model: Callable[[], object], X: pd.DataFrame, Y: np.ndarray,
@@ -575,7 +579,8 @@ def baseline_predictions(X: pd.DataFrame, Y: np.ndarray, meta: pd.DataFrame,
 
     terr = meta["terrain"].to_numpy()
     pitch = X["pitch"].to_numpy()
-    straight = train & (np.abs(X["wz__mean"].to_numpy()) < 0.05)   # eq. 22: straight driving
+    # eq. 22: straight driving
+    straight = train & (np.abs(X["wz__mean"].to_numpy()) < STRAIGHT_MAX_YAW_RATE_RAD_S)
     # (a list or a 1-D Y was a bare numpy error; one column was taken for both sides)
     sides = _window_sides("baseline_predictions", "Y", Y, len(X))
     coef = fit_pitch_slip(pitch[straight], sides[straight].mean(axis=1), terr[straight])
@@ -680,11 +685,12 @@ def measured_checks(X: pd.DataFrame, pred: np.ndarray, run_ids: np.ndarray,
                       f"windows ({first_items(np.flatnonzero(unknown).tolist(), word='window')})",
                       DataWarning, stacklevel=2)
     turning = np.abs(wz) >= min_turn_rad_s        # the windows chi is used on
-    straight_all = np.abs(wz) < 0.05
+    straight_all = np.abs(wz) < STRAIGHT_MAX_YAW_RATE_RAD_S
     between = ~(turning | straight_all | unknown)
     if between.any():   # neither turning nor straight either: left out, said
         warnings.warn(f"measured_checks: {int(between.sum())} of {n} windows have a gyro yaw "
-                      f"rate between the straight (|wz__mean| < 0.05 rad/s) and the turning "
+                      f"rate between the straight (|wz__mean| < "
+                      f"{STRAIGHT_MAX_YAW_RATE_RAD_S:g} rad/s) and the turning "
                       f"(>= {min_turn_rad_s:g} rad/s) thresholds and are left out of the "
                       f"turning and the straight windows "
                       f"({first_items(np.flatnonzero(between).tolist(), word='window')})",
