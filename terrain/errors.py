@@ -353,6 +353,39 @@ def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> N
                                   + (f": {why}" if why else ""))
 
 
+def refuse_infinite(owner: str, X, names=None, why: str = "") -> None:
+    """Raise :class:`NonFiniteInputError` where the feature matrix ``X`` holds an infinite
+    value, naming the count and the first one's column and row (NaN passes: a missing
+    feature, which the tree models send down a learned branch); the shared refusal of the
+    tree models (scikit-learn's trees took inf as the largest value, without a word).
+
+    Parameters
+    ----------
+    owner : str
+        The function or object refusing, put first in the message.
+    X : numpy.ndarray
+        ``(n_rows, n_features)`` real features.
+    names : sequence of str, optional
+        ``(n_features,)`` the columns' names; None: a column is named by its 0-based
+        position.
+    why : str
+        Appended after a colon where not empty.
+
+    Raises
+    ------
+    NonFiniteInputError
+        "<owner>: X holds <count> infinite value(s), the first in column <name>, row <i>
+        (0-based)[: <why>]".
+    """
+    bad = np.isinf(X)
+    if bad.any():
+        rows, cols = np.nonzero(bad)        # (row-major: the first row first)
+        column = repr(str(names[cols[0]])) if names is not None else str(cols[0])
+        raise NonFiniteInputError(f"{owner}: X holds {int(bad.sum())} infinite value(s), the "
+                                  f"first in column {column}, row {rows[0]} (0-based)"
+                                  + (f": {why}" if why else ""))
+
+
 def _type_family(kind: type) -> object:
     """The family of a label's type: booleans (Python's and NumPy's), numbers (Python's and
     NumPy's integers and floats), text (``str``, ``numpy.str_``), bytes, or the type

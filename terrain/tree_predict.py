@@ -36,7 +36,7 @@ from typing import Sequence
 import numba
 import numpy as np
 
-from terrain.errors import ConfigError, NonFiniteInputError, ShapeError
+from terrain.errors import ConfigError, ShapeError, refuse_infinite
 
 #: Keys of packed gradient-boosted trees (:func:`pack_trees`).
 PACKED_KEYS = ("feature", "threshold", "missing_left", "left", "right", "is_leaf", "value",
@@ -243,16 +243,17 @@ def forest_proba(packed: dict[str, np.ndarray], X) -> np.ndarray:
     ShapeError
         ``X`` is not 2-D or has another number of columns than the forest was fitted on.
     NonFiniteInputError
-        ``X`` holds an infinite value (or one beyond float32), which scikit-learn refuses.
+        ``X`` holds an infinite value (or one beyond float32), which scikit-learn refuses;
+        the message names the count, the first one's column (0-based position) and row
+        (:func:`~terrain.errors.refuse_infinite`).
     """
     X = np.asarray(X)
     n_features = int(packed["n_features"][0])
     if X.ndim != 2 or X.shape[1] != n_features:
         raise ShapeError(f"X must have shape (n_rows, {n_features}), got {X.shape}")
     X32 = np.ascontiguousarray(X, dtype=np.float32)
-    if np.isinf(X32).any():
-        raise NonFiniteInputError("forest_proba: X holds an infinite value (or one too "
-                                  "large for float32)")
+    # (named no column nor row); one beyond float32 is infinite once cast, as in scikit-learn
+    refuse_infinite("forest_proba", X32, why="infinite, or too large for float32")
     out = np.zeros((X32.shape[0], packed["value"].shape[1]), dtype=np.float64)
     _walk_forest(packed["feature"], packed["threshold"], packed["missing_left"],
                  packed["left"], packed["right"], packed["value"], packed["tree_start"],

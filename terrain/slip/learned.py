@@ -28,11 +28,13 @@ from sklearn.utils.validation import check_is_fitted
 
 from terrain.errors import (ConfigError, DataWarning, MissingColumnError, NonFiniteInputError,
                             ShapeError, config_integer, config_positive, duplicated, listed,
-                            refuse_missing, refuse_mixed_types)
+                            refuse_infinite, refuse_missing, refuse_mixed_types)
 from terrain.tree_predict import pack_trees, predict_packed
 
 #: Median of the chi-square distribution with one degree of freedom (scipy.stats.chi2(1).median()).
 CHI2_1_MEDIAN = 0.454936423119572
+#: What a refusal of infinite features adds (:func:`~terrain.errors.refuse_infinite`).
+_INF_WHY = "a feature is finite, or NaN where it is missing"
 #: Output columns of :meth:`SlipRegressor.predict`.
 SLIP_OUTPUTS = ("slip_1", "slip_2", "chi", "v_by")
 
@@ -169,7 +171,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
         if X.ndim != 2:
             raise ShapeError(f"X must have shape (n_windows, n_features), got {X.shape}")
         # (scikit-learn's trees took inf as the largest value, without a word)
-        _refuse_infinite("SlipRegressor.fit", X, names)
+        refuse_infinite("SlipRegressor.fit", X, names, _INF_WHY)
         if y.ndim != 2 or y.shape != (len(X), len(SLIP_OUTPUTS)):
             raise ShapeError(f"y must have shape ({len(X)}, {len(SLIP_OUTPUTS)}), got {y.shape}")
         for i in (0, 1, 3):         # chi alone may be NaN (undefined when not turning)
@@ -319,7 +321,7 @@ class SlipRegressor(RegressorMixin, BaseEstimator):
             raise ShapeError(f"X must have shape (n_windows, {self.n_features_in_}), "
                              f"got {X.shape}")
         # (the compiled trees and scikit-learn's predict took inf as the largest value)
-        _refuse_infinite(f"SlipRegressor.{method}", X, names)
+        refuse_infinite(f"SlipRegressor.{method}", X, names, _INF_WHY)
         return X
 
     def predict(self, X) -> np.ndarray:
@@ -494,19 +496,6 @@ def calibration_folds(X: np.ndarray, y: np.ndarray, groups: np.ndarray,
     fold_of = fold_of_run[run_of]
     return [(np.flatnonzero(fold_of != f), np.flatnonzero(fold_of == f))
             for f in range(n_folds)]
-
-
-def _refuse_infinite(owner: str, X: np.ndarray, names) -> None:
-    """Raise :class:`NonFiniteInputError` where the features ``X`` hold an infinite value,
-    naming the first one's column and row (NaN passes: a missing value, which the trees
-    learn where to send)."""
-    bad = np.isinf(X)
-    if bad.any():
-        rows, cols = np.nonzero(bad)        # (row-major: the first row first)
-        column = repr(str(names[cols[0]])) if names is not None else str(cols[0])
-        raise NonFiniteInputError(f"{owner}: X holds {int(bad.sum())} infinite value(s), the "
-                                  f"first in column {column}, row {rows[0]} (0-based): a "
-                                  "feature is finite, or NaN where it is missing")
 
 
 def _text_columns(X) -> np.ndarray | None:
