@@ -786,7 +786,9 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
     ``fused``: inverse-variance weighted mean of physics and learned; its std is that of the
     weighted mean for errors of correlation ``settings.error_correlation``, or, when that is
     None, the better of the two stds (the learned model takes the physics slip as a feature,
-    so their errors need not be independent).
+    so their errors need not be independent). A window side where one model's slip or std
+    is NaN (the physics std where the current's spread in the window is unknown) takes the
+    other model's slip and std alone.
 
     Parameters
     ----------
@@ -832,16 +834,25 @@ def pseudo_measurement(outputs: dict[str, tuple[np.ndarray, np.ndarray, np.ndarr
     mean = (wp * sp + wl * sl) / (wp + wl)
     rho = settings.error_correlation
     if rho is None:
-        return t, mean, np.minimum(vp, vl)
-    ap, al = wp / (wp + wl), wl / (wp + wl)
-    if rho >= 0.0:
-        var = (ap * vp) ** 2 + (al * vl) ** 2 + 2.0 * rho * ap * al * vp * vl
+        std = np.minimum(vp, vl)
     else:
-        # the same variance as a square plus a part >= 0: a^2 + b^2 - 2 |rho| a b cancels
-        # where a ~ b (rho -1, two nearly equal stds) and rounding made it < 0, a NaN std
-        a, b = ap * vp, al * vl
-        var = (a - b) ** 2 + 2.0 * (1.0 + rho) * a * b
-    return t, mean, np.maximum(np.sqrt(var), settings.min_std)
+        ap, al = wp / (wp + wl), wl / (wp + wl)
+        if rho >= 0.0:
+            var = (ap * vp) ** 2 + (al * vl) ** 2 + 2.0 * rho * ap * al * vp * vl
+        else:
+            # the same variance as a square plus a part >= 0: a^2 + b^2 - 2 |rho| a b
+            # cancels where a ~ b (rho -1, two nearly equal stds) and rounding made it < 0
+            a, b = ap * vp, al * vl
+            var = (a - b) ** 2 + 2.0 * (1.0 + rho) * a * b
+        std = np.maximum(np.sqrt(var), settings.min_std)
+    # a window side that one model cannot judge (its slip or std NaN: the physics std where
+    # the current's spread in the window is unknown) takes the other model's alone; the
+    # NaN of the weighted mean dropped the learned slip there too
+    physics_known = np.isfinite(sp) & np.isfinite(vp)
+    learned_known = np.isfinite(sl) & np.isfinite(vl)
+    mean = np.where(physics_known, np.where(learned_known, mean, sp), sl)
+    std = np.where(physics_known, np.where(learned_known, std, vp), vl)
+    return t, mean, std
 
 
 def estimate_skid_steer_slip_run(run: Run, slip_model: str = "fused", *,

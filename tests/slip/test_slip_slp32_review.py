@@ -414,18 +414,29 @@ def test_fused_std_grows_with_the_assumed_error_correlation(seed, r):
     assert np.all(stds[0] <= stds[1] * (1 + 1e-12) + 1e-15)
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "review slp32: a fused window-side whose physics std is unknown (NaN: its current spread "
-    "inside the window unknown) takes the learned slip's weight with it, so the batch "
-    "estimate skips a measurement the learned model still makes; taking the learned slip "
-    "alone there would move the fused batch estimate (terrain estimate, documented NEES) "
-    "of runs with such windows"))
 def test_fused_pseudo_measurement_keeps_the_learned_slip_where_the_physics_std_is_unknown():
     t = np.arange(2.0)
     outputs = {"physics": (t, np.full((2, 2), 0.1), np.array([[np.nan, 0.01], [0.01, 0.01]])),
                "learned": (t, np.full((2, 2), 0.12), np.full((2, 2), 0.02))}
     _, slip, std = pseudo_measurement(outputs, "fused", FusionSettings(min_std=1e-5))
     assert slip[0, 0] == 0.12 and std[0, 0] == 0.02
+
+
+@pytest.mark.parametrize("rho", [None, 0.0, 0.5, -0.5])
+def test_fused_takes_the_model_that_can_judge_a_window_side_alone(rho):
+    """Learned unknown: the physics slip and std; physics unknown: the learned ones; both
+    known: the weighted mean, as before; neither: NaN (the batch estimate skips it)."""
+    t = np.arange(2.0)
+    outputs = {"physics": (t, np.array([[0.1, 0.1], [np.nan, 0.1]]),
+                           np.array([[0.01, 0.01], [0.01, np.nan]])),
+               "learned": (t, np.array([[0.2, np.nan], [0.3, 0.3]]),
+                           np.array([[0.01, 0.02], [np.nan, 0.04]]))}
+    settings = FusionSettings(min_std=1e-5, error_correlation=rho)
+    _, slip, std = pseudo_measurement(outputs, "fused", settings)
+    assert slip[0, 0] == pytest.approx(0.15) and 0.0 < std[0, 0] <= 0.01   # both known
+    assert slip[0, 1] == 0.1 and std[0, 1] == 0.01          # learned slip NaN: physics
+    assert slip[1, 1] == 0.3 and std[1, 1] == 0.04          # physics std NaN: learned
+    assert np.isnan(slip[1, 0]) or np.isnan(std[1, 0])      # physics slip and learned std NaN
 
 
 @pytest.mark.parametrize("yaw", [np.zeros((6, 1)), np.zeros(5), np.zeros(7), 0.0])
