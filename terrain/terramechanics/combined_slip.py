@@ -32,6 +32,7 @@ from typing import NamedTuple
 import numpy as np
 
 from terrain.errors import ConfigError, config_numbers
+from terrain.terramechanics.traction import check_numeric_pair
 
 
 class CombinedSlip(NamedTuple):
@@ -92,6 +93,12 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
     ConfigError
         ``side_force_factor`` or ``hold_slip`` not a real number (a boolean, text,
         ``None``) or outside (0, 1].
+    DataFormatError
+        ``slip_long`` or ``slip_side`` not numbers or numeric arrays (None gave NaN forces,
+        ``True`` a full slip, text a bare ValueError;
+        :func:`~terrain.terramechanics.traction.numeric_array`).
+    ShapeError
+        ``slip_long`` and ``slip_side`` of shapes that do not broadcast.
     """
     # called on every simulator step: floats in range pass on two isinstance tests
     if not (isinstance(side_force_factor, float) and isinstance(hold_slip, float)):
@@ -101,8 +108,14 @@ def combined_slip_coefficients(curve, slip_long: np.ndarray, slip_side: np.ndarr
         raise ConfigError(f"side_force_factor must be in (0, 1], got {side_force_factor}")
     if not 0.0 < hold_slip <= 1.0:
         raise ConfigError(f"hold_slip must be in (0, 1], got {hold_slip}")
-    s_x = np.asarray(slip_long, dtype=float)
-    s_y = np.asarray(slip_side, dtype=float)
+    s_x = np.asarray(slip_long)
+    s_y = np.asarray(slip_side)
+    # (float or integer arrays of one shape pass on three tests)
+    if s_x.dtype.kind not in "iuf" or s_y.dtype.kind not in "iuf" or s_x.shape != s_y.shape:
+        check_numeric_pair("combined_slip_coefficients", slip_long=slip_long,
+                           slip_side=slip_side)
+    s_x = s_x.astype(float, copy=False)
+    s_y = s_y.astype(float, copy=False)
     s_res = np.hypot(s_x, s_y)
     mu_res, dmu = curve.coefficients(np.minimum(s_res, hold_slip), 0.0)[:2]
     at_zero = s_res < 1e-12

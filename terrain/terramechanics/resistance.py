@@ -15,8 +15,8 @@ import math
 
 import numpy as np
 
-from terrain.errors import ConfigError, config_numbers, config_positive
-from terrain.terramechanics.traction import numeric_array, traction_peak
+from terrain.errors import ConfigError, NonFiniteInputError, config_numbers, config_positive
+from terrain.terramechanics.traction import check_numeric_pair, numeric_array, traction_peak
 
 G_M_S2 = 9.80665
 #: Regularisation speed of the sign of the torque-only rolling loss (hysteresis), m/s: the
@@ -87,7 +87,8 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     mass_kg : float
         Vehicle mass, kg.
     pitch_rad : float or ndarray, shape (...)
-        Nose-up inclination of the vehicle, rad (positive when climbing).
+        Nose-up inclination of the vehicle, rad (positive when climbing); NaN (a missing
+        sample) passes as a NaN force.
 
     Returns
     -------
@@ -99,10 +100,21 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     ConfigError
         ``mass_kg`` not a finite real number > 0 (a negative mass gave a grade force that
         pushes uphill, NaN a NaN force, ``True`` a 1 kg vehicle).
+    DataFormatError
+        ``pitch_rad`` not a number or a numeric array (None was a NaN force, ``True`` the
+        grade of a 1 rad slope, text NumPy's bare ValueError;
+        :func:`~terrain.terramechanics.traction.numeric_array`).
+    NonFiniteInputError
+        An infinite ``pitch_rad`` (``sin`` of it was a NaN force and a RuntimeWarning).
     """
     config_numbers("grade_resistance_n", mass_kg=mass_kg)
     config_positive("grade_resistance_n", mass_kg=mass_kg)
-    return mass_kg * G_M_S2 * np.sin(np.asarray(pitch_rad, dtype=float))
+    pitch = numeric_array("grade_resistance_n", "pitch_rad", pitch_rad)
+    if np.isinf(pitch).any():
+        raise NonFiniteInputError(f"grade_resistance_n: pitch_rad holds "
+                                  f"{int(np.isinf(pitch).sum())} infinite value(s), the first "
+                                  f"at flat index {int(np.flatnonzero(np.isinf(pitch))[0])}")
+    return mass_kg * G_M_S2 * np.sin(pitch)
 
 
 def check_slide_speed(owner: str, slide_speed_m_s: float) -> None:
@@ -166,16 +178,25 @@ def lateral_force_and_slope(mu_lateral: float, normal_load_n: np.ndarray,
         ``slide_speed_m_s`` not a finite value > 0 (0 divides by zero, a negative one turns
         the friction into a pushing force), or ``mu_lateral`` not a finite real number
         >= 0 (a negative one pushed the wheel along its slide, NaN gave NaN forces).
+    DataFormatError
+        ``normal_load_n`` or ``v_lateral_m_s`` not numbers or numeric arrays (None raised a
+        bare TypeError, text NumPy's UFuncTypeError, ``True`` was a speed of 1 m/s).
+    ShapeError
+        ``normal_load_n`` and ``v_lateral_m_s`` of shapes that do not broadcast.
     """
     check_slide_speed("lateral_force_and_slope", slide_speed_m_s)
     # called on every simulator step: a float in range passes on one isinstance test
     if not (isinstance(mu_lateral, float) and 0.0 <= mu_lateral < math.inf):
         config_positive("lateral_force_and_slope", allow_zero=True, mu_lateral=mu_lateral)
     normal = np.asarray(normal_load_n)
+    v = np.asarray(v_lateral_m_s)
+    # (float or integer arrays of one shape pass on three tests; dtypes kept as given)
+    if normal.dtype.kind not in "iuf" or v.dtype.kind not in "iuf" or normal.shape != v.shape:
+        check_numeric_pair("lateral_force_and_slope", normal_load_n=normal_load_n,
+                           v_lateral_m_s=v_lateral_m_s)
     # a lifted contact carries no load: a negative one flipped the friction into a force
     # along the slide (the soil law clips its load at 0 as well); 0 and -0.0 kept as given
     normal = np.where(normal < 0.0, 0.0, normal)
-    v = np.asarray(v_lateral_m_s)
     x_l = v / slide_speed_m_s
     th_l = np.tanh(x_l)
     minus_mu_n = -mu_lateral * normal     # (-mu) N, once for the force and the slope
@@ -212,6 +233,8 @@ def lateral_force_n(mu_lateral: float, normal_load_n: np.ndarray, v_lateral_m_s:
     ConfigError
         ``slide_speed_m_s`` not a finite value > 0, or ``mu_lateral`` not a finite value
         >= 0.
+    DataFormatError, ShapeError
+        As :func:`lateral_force_and_slope`.
     """
     return lateral_force_and_slope(mu_lateral, normal_load_n, v_lateral_m_s,
                                    slide_speed_m_s)[0]

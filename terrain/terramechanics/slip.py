@@ -31,7 +31,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from terrain.errors import DataFormatError, EstimationError, ShapeError
+from terrain.errors import DataFormatError, EstimationError, ShapeError, refuse_booleans
+from terrain.terramechanics.traction import check_numeric_pair
 
 #: Dead band of seed 001 ch. 7.2.1, m/s: slip is 0 when both speeds are below it.
 THESIS_DEAD_BAND_M_S = 0.05
@@ -141,11 +142,14 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
         Negative, infinite, NaN or non-numeric speed floor or dead band, or non-positive
         saturation.
     DataFormatError
-        A speed that is not a number (text, None).
+        A speed that is not a number (text, None, a boolean: ``True`` was 1 m/s).
     ShapeError
         Speeds whose shapes do not broadcast.
     """
     _check(speed_floor_m_s, dead_band_m_s, saturation)
+    # a mask passed for a speed was a speed of 1 m/s
+    refuse_booleans(DataFormatError, "sae_slip", rim_speed_m_s=rim_speed_m_s,
+                    v_long_m_s=v_long_m_s)
     try:
         if rim_speed_m_s is None or v_long_m_s is None:  # asarray would make it NaN
             raise TypeError("got None")
@@ -286,9 +290,23 @@ def ground_speed_from_slip(rim_speed_m_s: np.ndarray | float, slip: np.ndarray |
     ndarray, broadcast shape of the inputs
         Ground speed, m/s; NaN where ``q > 1`` or ``q <= -1`` (no ground speed gives that
         slip: ``q > 1`` made it run against the rim, ``q = -1`` gave 1e12 m/s).
+
+    Raises
+    ------
+    DataFormatError
+        ``rim_speed_m_s`` or ``slip`` not a number or a numeric array (None was a NaN speed,
+        ``True`` a slip of 1, text a bare ValueError;
+        :func:`~terrain.terramechanics.traction.numeric_array`).
+    ShapeError
+        ``rim_speed_m_s`` and ``slip`` of shapes that do not broadcast.
     """
-    rim = np.asarray(rim_speed_m_s, dtype=float)
-    q = np.where(rim >= 0.0, 1.0, -1.0) * np.asarray(slip, dtype=float)
+    rim, slip_in = np.asarray(rim_speed_m_s), np.asarray(slip)
+    # (float or integer arrays of one shape pass on three tests)
+    if (rim.dtype.kind not in "iuf" or slip_in.dtype.kind not in "iuf"
+            or rim.shape != slip_in.shape):
+        check_numeric_pair("ground_speed_from_slip", rim_speed_m_s=rim_speed_m_s, slip=slip)
+    rim = rim.astype(float, copy=False)
+    q = np.where(rim >= 0.0, 1.0, -1.0) * slip_in.astype(float, copy=False)
     # 1 + q as it is inside the domain (a floor at 1e-12 returned omega r 1e12 for every
     # q within 1e-12 of -1); NaN where q <= -1 (no division by 0 or a negative 1 + q)
     v = np.where(q >= 0.0, rim * (1.0 - q), rim / np.where(q <= -1.0, np.nan, 1.0 + q))

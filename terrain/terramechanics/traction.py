@@ -48,8 +48,8 @@ import numba
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from terrain.errors import (ConfigError, DataFormatError, config_fraction, config_numbers,
-                            config_positive)
+from terrain.errors import (ConfigError, DataFormatError, ShapeError, config_fraction,
+                            config_numbers, config_positive)
 
 
 class CurveCoefficients(NamedTuple):
@@ -880,6 +880,41 @@ def numeric_array(owner: str, name: str, value: np.ndarray | float) -> np.ndarra
         raise DataFormatError(f"{owner}: {name} must be a number or a numeric array, got "
                               f"{value!r:.80} (dtype {raw.dtype})")
     return raw.astype(float, copy=False)
+
+
+def check_numeric_pair(owner: str, **pair) -> None:
+    """Refuse two array arguments of a relation unless both hold numbers and broadcast.
+
+    The slow path of the relations called on every simulator step
+    (:func:`~terrain.terramechanics.resistance.lateral_force_and_slope`,
+    :func:`~terrain.terramechanics.combined_slip.combined_slip_coefficients`,
+    :func:`~terrain.terramechanics.slip.ground_speed_from_slip`): each is refused by
+    :func:`numeric_array`, then their shapes must broadcast (NumPy's "operands could not be
+    broadcast together" named neither).
+
+    Parameters
+    ----------
+    owner : str
+        The refusing function, for the message.
+    **pair
+        The two arguments' names -> values (floats or arrays, any shapes), in order.
+
+    Raises
+    ------
+    DataFormatError
+        An argument that is not a number or a numeric array (:func:`numeric_array`).
+    ShapeError
+        Shapes that do not broadcast: "<owner>: <a> of shape (...) and <b> of shape (...)
+        do not broadcast".
+    """
+    (name_a, a), (name_b, b) = pair.items()
+    shape_a = numeric_array(owner, name_a, a).shape
+    shape_b = numeric_array(owner, name_b, b).shape
+    try:
+        np.broadcast_shapes(shape_a, shape_b)
+    except ValueError:
+        raise ShapeError(f"{owner}: {name_a} of shape {shape_a} and {name_b} of shape "
+                         f"{shape_b} do not broadcast") from None
 
 
 def traction_coefficient(curve: TractionCurve, slip: np.ndarray | float) -> np.ndarray:
