@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from terrain.terramechanics import (TERRAIN_NAMES, JanosiCurve, bekker_compaction_coefficient,
                                     get_terrain, grade_resistance_n, sae_slip,
+                                    soil_resistance_coefficient, steady_slip,
                                     traction_coefficient, turning_resistance_moment_nm)
 from terrain.terramechanics.combined_slip import combined_slip_coefficients
 from terrain.terramechanics.efficiency import tractive_efficiency
@@ -136,3 +137,25 @@ def test_tractive_efficiency_is_zero_at_zero_and_full_slip(name):
     assert float(tractive_efficiency(terrain, 0.0)) == 0.0
     assert float(tractive_efficiency(terrain, 1.0)) == 0.0
     assert float(tractive_efficiency(terrain, -1.0)) == 0.0
+
+
+@FAST
+@given(x=st.floats(1e-6, 0.05), sign=st.sampled_from([-1.0, 1.0]),
+       slide=st.sampled_from([0.005, 0.02, 0.2]))
+def test_coulomb_lateral_slope_is_the_secant_at_small_slide_speeds_too(x, sign, slide):
+    # mutant check: the secant switched to its limit 1 / v_slide only below |v| / v_slide =
+    # 1e-6; switching at 1e-2 steepened the slope by up to 3e-5 (tanh(x) / x = 1 - x^2 / 3)
+    # where the implicit integrator of a slowly sliding wheel reads it
+    v = sign * x * slide
+    force, slope = (float(f) for f in lateral_force_and_slope(0.6, 300.0, v, slide))
+    np.testing.assert_allclose(slope * v, force, rtol=1e-12)
+
+
+@FAST
+@given(name=st.sampled_from(TERRAIN_NAMES))
+def test_steady_slip_at_a_net_demand_of_exactly_zero_is_zero(name):
+    # boundary of "a demand below -soil_resistance(0) needs no traction": at exactly
+    # -soil_resistance(0) the wheel needs no slip either
+    terrain = get_terrain(name)
+    demand = -float(soil_resistance_coefficient(terrain, 0.0))
+    assert steady_slip(terrain, demand) == 0.0
