@@ -829,12 +829,15 @@ def patch_mobilisation(a: np.ndarray, residual_ratio: float | None = None
     Raises
     ------
     ConfigError
-        ``residual_ratio`` outside (0, 1) (a ``ValueError`` too).
+        ``residual_ratio`` not a real number (text, a boolean, a list:
+        :func:`~terrain.errors.config_numbers`) or outside (0, 1) (a ``ValueError`` too).
     """
     a = np.asarray(a, dtype=float)
     if residual_ratio is None:
         kr, b, s0, c2 = 0.0, 0.0, 1.0, 0.0
     else:
+        if not isinstance(residual_ratio, float):   # (text, a list: float() named nothing)
+            config_numbers("patch_mobilisation", residual_ratio=residual_ratio)
         kr = float(residual_ratio)
         if not 0.0 < kr < 1.0:
             raise ConfigError(f"patch_mobilisation: residual_ratio must be in (0, 1), got "
