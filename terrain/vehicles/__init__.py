@@ -66,7 +66,15 @@ def contact_geometry(params: AgriMaRoParams | HuskyParams | TrackedParams) -> Co
     Returns
     -------
     ContactGeometry
+
+    Raises
+    ------
+    ConfigError
+        ``params`` not one of the vehicle parameter types (None raised AttributeError).
     """
+    if not isinstance(params, (AgriMaRoParams, HuskyParams, TrackedParams)):
+        raise ConfigError(f"contact_geometry: params must be AgriMaRoParams, HuskyParams or "
+                          f"TrackedParams, got {type(params).__name__}")
     return params.contact_geometry()
 
 

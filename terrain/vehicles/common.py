@@ -54,18 +54,28 @@ def float_arrays(owner: str, **arrays) -> list[np.ndarray]:
     Raises
     ------
     EstimationError
-        An argument that holds booleans (``True`` was a speed of 1 m/s), or that does not
-        convert to numbers (text, a ragged list: NumPy's bare ValueError named none).
+        An argument that holds booleans (``True`` was a speed of 1 m/s), text (``"0.5"``
+        was parsed as 0.5, ``"a"`` raised NumPy's bare ValueError that named none), ``None``
+        (NumPy's NaN), or that does not convert to numbers (a ragged list).
     """
     refuse_booleans(EstimationError, owner, **arrays)
     out = []
     for name, value in arrays.items():
         try:
+            if np.asarray(value).dtype.kind in "USO" and _holds_non_numbers(value):
+                raise ValueError("text or None is not a number")
             out.append(np.asarray(value, dtype=float))
         except (TypeError, ValueError) as err:
             raise EstimationError(f"{owner}: {name} must hold numbers, got "
                                   f"{value!r:.60} ({err})") from None
     return out
+
+
+def _holds_non_numbers(value) -> bool:
+    """Whether ``value`` is or holds text (str or bytes, NumPy's included) or ``None``:
+    NumPy parses ``"0.5"`` as a number, and ``None`` as NaN, where the kinematics mean one."""
+    return any(v is None or isinstance(v, (str, bytes, np.str_, np.bytes_))
+               for v in np.asarray(value, dtype=object).ravel())
 
 
 def check_fields(params, positive: tuple = (), non_negative: tuple = (),
@@ -194,9 +204,16 @@ class MotorParams:
         -------
         ndarray, shape (...)
             Signed motor current, A.
+
+        Raises
+        ------
+        EstimationError
+            An argument holding booleans (``True`` was a torque of 1 N m) or what is not
+            numbers (text), named (:func:`float_arrays`).
         """
-        torque = np.asarray(wheel_torque_nm, dtype=float)
-        return (self.no_load_current_a * self.rotation_direction(omega_rad_s)
+        torque, omega = float_arrays("MotorParams.current_from_torque",
+                                     wheel_torque_nm=wheel_torque_nm, omega_rad_s=omega_rad_s)
+        return (self.no_load_current_a * self.rotation_direction(omega)
                 + torque / self.wheel_torque_per_amp_nm)
 
     @property
@@ -218,8 +235,14 @@ class MotorParams:
         Returns
         -------
         ndarray, shape (...)
+
+        Raises
+        ------
+        EstimationError
+            ``omega_rad_s`` holding booleans or what is not numbers (text).
         """
-        return np.tanh(np.asarray(omega_rad_s, dtype=float) / 0.05)
+        omega, = float_arrays("MotorParams.rotation_direction", omega_rad_s=omega_rad_s)
+        return np.tanh(omega / 0.05)
 
     def drive_power_w(self, current_a: np.ndarray, omega_rad_s: np.ndarray) -> np.ndarray:
         """Electrical power a PWM drive delivers to the motor, W.
@@ -245,10 +268,16 @@ class MotorParams:
         -------
         ndarray, shape (...)
             Power, W (>= 0).
+
+        Raises
+        ------
+        EstimationError
+            An argument holding booleans (``True`` was a current of 1 A) or what is not
+            numbers (text), named (:func:`float_arrays`).
         """
-        return (self.torque_constant_nm_per_a * self.gear_ratio
-                * np.abs(np.asarray(omega_rad_s, dtype=float))
-                * np.abs(np.asarray(current_a, dtype=float)))
+        current, omega = float_arrays("MotorParams.drive_power_w", current_a=current_a,
+                                      omega_rad_s=omega_rad_s)
+        return self.torque_constant_nm_per_a * self.gear_ratio * np.abs(omega) * np.abs(current)
 
 
 def drive_inertia_kg_m2(vehicle) -> float:
@@ -266,7 +295,19 @@ def drive_inertia_kg_m2(vehicle) -> float:
     Returns
     -------
     float
+        Inertia, kg m^2.
+
+    Raises
+    ------
+    ConfigError
+        ``vehicle`` not a vehicle's parameters (no :class:`MotorParams` ``motor`` or no
+        ``wheels_per_motor``: None or a bare MotorParams raised AttributeError).
     """
+    if (not isinstance(getattr(vehicle, "motor", None), MotorParams)
+            or not hasattr(vehicle, "wheels_per_motor")):
+        raise ConfigError(f"drive_inertia_kg_m2: vehicle must be a vehicle's parameters "
+                          f"(HuskyParams, TrackedParams or AgriMaRoParams), got "
+                          f"{type(vehicle).__name__}")
     return float(vehicle.motor.wheel_inertia_kg_m2) * int(vehicle.wheels_per_motor)
 
 

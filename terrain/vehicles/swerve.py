@@ -21,7 +21,7 @@ from numba.extending import register_jitable
 
 from terrain.errors import ConfigError, NonFiniteInputError, ShapeError, config_positive
 from terrain.vehicles.common import (ContactGeometry, MotorParams, check_fields, check_motor,
-                                     wrap_angle)
+                                     float_arrays, wrap_angle)
 
 #: Rotation taking T265 tracking-frame vectors (x right, y up, z backward) to the robot frame
 #: (x forward, y left, z up), seed 001 ch. 5.2.3.
@@ -286,8 +286,11 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
     ShapeError
         ``positions_m`` not of shape (n_wheels, 2) or ``twist`` not of shape (..., 3) (a
         fourth twist entry or a z coordinate was dropped without a word).
+    EstimationError
+        ``positions_m`` or ``twist`` holding booleans or what is not numbers (text),
+        named (:func:`~terrain.vehicles.common.float_arrays`).
     """
-    p = np.asarray(positions_m, dtype=float)
+    p, = float_arrays("wheel_contact_velocity", positions_m=positions_m)
     if p.ndim != 2 or p.shape[1] != 2:
         raise ShapeError(f"wheel_contact_velocity: positions_m must have shape (n_wheels, 2), "
                          f"one (x, y) per wheel, got {p.shape}")
@@ -299,11 +302,24 @@ def wheel_contact_velocity(positions_m: np.ndarray, twist: np.ndarray) -> np.nda
 def _vectors3(owner: str, name: str, value) -> np.ndarray:
     """``value`` as floats of shape (..., 3) (a vector per sample); ShapeError naming
     ``owner`` and ``name`` otherwise (np.cross took two entries as ``(x, y, 0)``, the
-    product and the indexing dropped a fourth without a word)."""
-    a = np.asarray(value, dtype=float)
+    product and the indexing dropped a fourth without a word); EstimationError naming them
+    for booleans or text (:func:`~terrain.vehicles.common.float_arrays`: ``True`` was 1 m/s,
+    ``"a"`` NumPy's bare ValueError)."""
+    a, = float_arrays(owner, **{name: value})
     if a.ndim == 0 or a.shape[-1] != 3:
         raise ShapeError(f"{owner}: {name} must have shape (..., 3), got {a.shape}")
     return a
+
+
+def _finite(owner: str, name: str, a: np.ndarray, what: str, why: str) -> None:
+    """NonFiniteInputError where ``a`` holds NaN or inf, naming ``owner``, ``name``, the count
+    and the first one's value and index; ``what`` names the entries, ``why`` says what
+    would have gone wrong."""
+    bad = ~np.isfinite(a)
+    if bad.any():
+        first = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise NonFiniteInputError(f"{owner}: {name} holds {int(bad.sum())} non-finite {what} "
+                                  f"(first {a[bad][0]!r} at index {first}); {why}")
 
 
 def _check_swerve(owner: str, params) -> None:
@@ -337,16 +353,25 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
     ShapeError
         ``delta_rad`` and ``omega_rad_s`` of different shapes, or a last axis that is not
         one entry per wheel (NumPy's bare broadcast or matmul ValueError before).
+    NonFiniteInputError
+        ``delta_rad`` or ``omega_rad_s`` holding NaN or inf, named with the count and the
+        first index (the least squares spread one NaN wheel over the whole twist of its
+        sample, without a word).
+    EstimationError
+        ``delta_rad`` or ``omega_rad_s`` holding booleans (``True`` was 1 rad) or what is
+        not numbers (text), named.
     ConfigError
         ``params`` not an :class:`AgriMaRoParams` (a skid-steer's parameters).
     """
     _check_swerve("swerve_forward", params)
-    d = np.asarray(delta_rad, dtype=float)
-    w = np.asarray(omega_rad_s, dtype=float)
+    d, w = float_arrays("swerve_forward", delta_rad=delta_rad, omega_rad_s=omega_rad_s)
     n_wheels = len(params.positions)
     if d.shape != w.shape or d.ndim == 0 or d.shape[-1] != n_wheels:
         raise ShapeError(f"swerve_forward: delta_rad {d.shape} and omega_rad_s {w.shape} must "
                          f"have one shape (..., {n_wheels}), one entry per wheel")
+    for name, a in (("delta_rad", d), ("omega_rad_s", w)):
+        _finite("swerve_forward", name, a, "entries",
+                "the least-squares twist of that sample would be NaN")
     rw = params.wheel_radius_m * w
     s_omega = np.empty(d.shape[:-1] + (2 * d.shape[-1],))
     s_omega[..., 0::2] = rw * np.cos(d)       # eq. 2.1: s_i(delta_i) omega_i
@@ -358,17 +383,14 @@ def swerve_forward(delta_rad: np.ndarray, omega_rad_s: np.ndarray,
 def _previous_angles(delta_prev_rad, shape: tuple) -> np.ndarray:
     """``delta_prev_rad`` of :func:`swerve_inverse` broadcast to ``shape`` (ShapeError when
     it does not broadcast, NonFiniteInputError naming the count of NaN or inf angles)."""
-    prev = np.asarray(delta_prev_rad, dtype=float)
+    prev, = float_arrays("swerve_inverse", delta_prev_rad=delta_prev_rad)
     try:
         prev = np.broadcast_to(prev, shape)
     except ValueError:
         raise ShapeError(f"swerve_inverse: delta_prev_rad {prev.shape} must broadcast to the "
                          f"steering angles {shape}, one per unit") from None
-    bad = ~np.isfinite(prev)
-    if bad.any():
-        raise NonFiniteInputError(f"swerve_inverse: delta_prev_rad holds {int(bad.sum())} "
-                                  f"non-finite angles (first {prev[bad][0]!r}); the solution "
-                                  f"closest to the previous angle is not defined")
+    _finite("swerve_inverse", "delta_prev_rad", prev, "angles",
+            "the solution closest to the previous angle is not defined")
     return prev
 
 
@@ -410,11 +432,18 @@ def swerve_inverse(twist: np.ndarray, params: AgriMaRoParams = AGRIMARO,
         ``delta_prev_rad`` that does not broadcast to (..., 3).
     NonFiniteInputError
         ``delta_prev_rad`` holds NaN or inf (no solution is closest to it: the unit took
-        the k = 0 angle, a standing unit kept NaN).
+        the k = 0 angle, a standing unit kept NaN), or ``twist`` does (NaN steering angles
+        and wheel speeds came back, and a NaN unit did not keep its angle).
+    EstimationError
+        ``twist`` or ``delta_prev_rad`` holding booleans or what is not numbers (text),
+        named.
     """
     config_positive("swerve_inverse", allow_zero=True, min_speed_m_s=min_speed_m_s)
     _check_swerve("swerve_inverse", params)
-    vel = wheel_contact_velocity(params.positions, twist)
+    tw = _vectors3("swerve_inverse", "twist", twist)
+    _finite("swerve_inverse", "twist", tw, "entries",
+            "the steering angles and wheel speeds would be NaN")
+    vel = wheel_contact_velocity(params.positions, tw)
     speed = np.hypot(vel[..., 0], vel[..., 1])
     delta0 = np.arctan2(vel[..., 1], vel[..., 0])
     prev = np.zeros_like(delta0) if delta_prev_rad is None else _previous_angles(
@@ -452,8 +481,12 @@ def camera_to_robot_velocity(v_camera_m_s: np.ndarray, omega_rad_s: np.ndarray,
     ------
     ShapeError
         As :func:`robot_to_camera_velocity`.
+    EstimationError
+        As :func:`robot_to_camera_velocity` (the negation of ``omega_rad_s`` raised NumPy's
+        bare TypeError on booleans and text before).
     """
-    return robot_to_camera_velocity(v_camera_m_s, -np.asarray(omega_rad_s), lever_arm_m)
+    w = _vectors3("camera_to_robot_velocity", "omega_rad_s", omega_rad_s)
+    return robot_to_camera_velocity(v_camera_m_s, -w, lever_arm_m)
 
 
 def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
@@ -481,10 +514,13 @@ def robot_to_camera_velocity(v_robot_m_s: np.ndarray, omega_rad_s: np.ndarray,
     ShapeError
         A velocity or angular velocity not of shape (..., 3) or a lever arm not of shape
         (3,) (np.cross took two entries as ``(x, y, 0)``).
+    EstimationError
+        A velocity, angular velocity or lever arm holding booleans or what is not numbers
+        (text), named.
     """
     v = _vectors3("robot_to_camera_velocity", "velocity", v_robot_m_s)
     w = _vectors3("robot_to_camera_velocity", "omega_rad_s", omega_rad_s)
-    arm = np.asarray(lever_arm_m, dtype=float)
+    arm, = float_arrays("robot_to_camera_velocity", lever_arm_m=lever_arm_m)
     if arm.shape != (3,):
         raise ShapeError(f"robot_to_camera_velocity: lever_arm_m must have shape (3,), got "
                          f"{arm.shape}")
@@ -509,5 +545,7 @@ def t265_tracking_to_robot(vectors: np.ndarray) -> np.ndarray:
     ------
     ShapeError
         ``vectors`` not of shape (..., 3) (NumPy's bare matmul ValueError before).
+    EstimationError
+        ``vectors`` holding booleans or what is not numbers (text).
     """
     return _vectors3("t265_tracking_to_robot", "vectors", vectors) @ R_ROBOT_FROM_T265_TRACKING.T
