@@ -90,3 +90,19 @@ def test_valid_inputs_still_give_the_documented_values():
     d, w = swerve_inverse(twist)
     np.testing.assert_allclose(swerve_forward(d, w), twist, atol=1e-12)
     assert HUSKY.motor.current_from_torque(0.0, 1e9) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda bad: __import__("terrain.vehicles").vehicles.skid_steer_forward(bad, [1.0], 0.5),
+     "v_left_m_s"),
+    (lambda bad: __import__("terrain.vehicles").vehicles.skid_steer_inverse([1.0], bad, 0.5),
+     "yaw_rate_rad_s"),
+    (lambda bad: __import__("terrain.vehicles.icr").vehicles.icr.icr_expansion_factor(
+        bad, [1.0]), "yaw_rate_rad_s"),
+])
+@pytest.mark.parametrize("bad", [["0.5"], [None], None], ids=["numeric-text", "None-in-list",
+                                                                "None"])
+def test_skid_steer_and_icr_refuse_numeric_text_and_none(call, name, bad):
+    # NumPy parsed "0.5" as 0.5 and None as NaN: a silent speed, or a silent NaN chi
+    with pytest.raises(EstimationError, match=name):
+        call(bad)
