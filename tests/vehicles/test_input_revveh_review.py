@@ -8,8 +8,9 @@ import pytest
 from terrain.errors import ConfigError, EstimationError, NonFiniteInputError
 from terrain.vehicles import (AGRIMARO, HUSKY, TRACKED, camera_to_robot_velocity,
                               contact_geometry, drive_inertia_kg_m2, robot_to_camera_velocity,
-                              swerve_forward, swerve_inverse, t265_tracking_to_robot,
-                              wheel_contact_velocity)
+                              skid_steer_forward, skid_steer_inverse, swerve_forward,
+                              swerve_inverse, t265_tracking_to_robot, wheel_contact_velocity)
+from terrain.vehicles.icr import icr_expansion_factor
 
 
 @pytest.mark.parametrize("call, name", [
@@ -93,15 +94,12 @@ def test_valid_inputs_still_give_the_documented_values():
 
 
 @pytest.mark.parametrize("call, name", [
-    (lambda bad: __import__("terrain.vehicles").vehicles.skid_steer_forward(bad, [1.0], 0.5),
-     "v_left_m_s"),
-    (lambda bad: __import__("terrain.vehicles").vehicles.skid_steer_inverse([1.0], bad, 0.5),
-     "yaw_rate_rad_s"),
-    (lambda bad: __import__("terrain.vehicles.icr").vehicles.icr.icr_expansion_factor(
-        bad, [1.0]), "yaw_rate_rad_s"),
+    (lambda bad: skid_steer_forward(bad, [1.0], 0.5), "v_left_m_s"),
+    (lambda bad: skid_steer_inverse([1.0], bad, 0.5), "yaw_rate_rad_s"),
+    (lambda bad: icr_expansion_factor(bad, [1.0]), "yaw_rate_rad_s"),
 ])
-@pytest.mark.parametrize("bad", [["0.5"], [None], None], ids=["numeric-text", "None-in-list",
-                                                                "None"])
+@pytest.mark.parametrize("bad", [["0.5"], [None], None],
+                         ids=["numeric-text", "None-in-list", "None"])
 def test_skid_steer_and_icr_refuse_numeric_text_and_none(call, name, bad):
     # NumPy parsed "0.5" as 0.5 and None as NaN: a silent speed, or a silent NaN chi
     with pytest.raises(EstimationError, match=name):

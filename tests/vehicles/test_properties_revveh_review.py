@@ -110,8 +110,8 @@ def test_every_pair_of_wheels_keeps_its_distance(tw):
 
 @FAST
 @given(tw=twist, prev=st.tuples(*[st.floats(-np.pi, np.pi)] * 3).map(np.array))
-def test_each_unit_rolls_along_its_contact_velocity_within_90_degrees_of_its_last_angle(tw,
-                                                                                       prev):
+def test_each_unit_rolls_along_its_contact_velocity_within_90_degrees_of_its_last_angle(
+        tw, prev):
     d, w = swerve_inverse(tw, delta_prev_rad=prev, min_speed_m_s=1e-9)
     vel = wheel_contact_velocity(AGRIMARO.positions, tw)
     rolled = AGRIMARO.wheel_radius_m * w[:, None] * np.column_stack([np.cos(d), np.sin(d)])
