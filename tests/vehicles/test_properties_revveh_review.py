@@ -8,8 +8,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from terrain.vehicles import (AGRIMARO, HUSKY, TRACKED, HuskyParams, TrackedParams,
-                              camera_to_robot_velocity, drive_inertia_kg_m2,
+from terrain.errors import ConfigError
+from terrain.vehicles import (AGRIMARO, HUSKY, TRACKED, ContactGeometry, HuskyParams,
+                              TrackedParams, camera_to_robot_velocity, drive_inertia_kg_m2,
                               endo_slip_ratio_ratio, robot_to_camera_velocity,
                               skid_steer_forward, skid_steer_inverse, skid_steer_pose_rates,
                               swerve_forward, swerve_inverse, t265_tracking_to_robot,
@@ -92,7 +93,7 @@ def test_the_swerve_drive_is_symmetric_about_its_y_axis(tw):
     flip = np.array([-1.0, 1.0])
     np.testing.assert_allclose(mirrored[[1, 0, 2]], vel * flip, atol=1e-12)
     # the forward kinematics of the mirrored wheel readings is the mirrored twist
-    d, w = swerve_inverse(tw)
+    d, w = swerve_inverse(tw, min_speed_m_s=0.0)     # (a unit below 1e-6 m/s stands)
     dm = wrap_angle(np.pi - d[[1, 0, 2]])
     np.testing.assert_allclose(swerve_forward(dm, w[[1, 0, 2]]), _mirror(tw), atol=1e-9)
 
@@ -139,7 +140,7 @@ def test_a_rotation_about_any_point_leaves_that_point_still(w, cx, cy):
     tw = np.array([w, w * cy, -w * cx])
     still = wheel_contact_velocity(np.array([[cx, cy]]), tw)[0]
     np.testing.assert_allclose(still, 0.0, atol=1e-12)
-    d, om = swerve_inverse(tw)
+    d, om = swerve_inverse(tw, min_speed_m_s=0.0)    # (a wheel at the centre: 0 m/s)
     np.testing.assert_allclose(swerve_forward(d, om), tw, atol=1e-9)
     # each wheel moves perpendicular to its arm from the centre
     vel = wheel_contact_velocity(AGRIMARO.positions, tw)
@@ -199,3 +200,24 @@ def test_drive_inertia_is_the_wheel_inertia_times_the_wheels_of_a_motor(vehicle,
     assert drive_inertia_kg_m2(vehicle) == vehicle.motor.wheel_inertia_kg_m2 * per_motor
     doubled = type(vehicle)(wheels_per_motor=2 * per_motor)
     assert drive_inertia_kg_m2(doubled) == 2.0 * drive_inertia_kg_m2(vehicle)
+
+
+@pytest.mark.parametrize("excess, ok", [(1e-12, True), (-1e-12, True), (1e-6, False),
+                                        (-1e-6, False), (5e-4, False)])
+def test_load_shares_must_sum_to_one_to_rounding_only(excess, ok):
+    # a geometry 0.05 % heavier than the vehicle (shares summing to 1.0005) is refused; the
+    # rounding of n equal shares 1/n is not
+    share = np.full(4, 0.25)
+    share[0] += excess
+    g = HUSKY.contact_geometry()
+
+    def make():
+        return ContactGeometry(positions_m=g.positions_m, motor_of_contact=g.motor_of_contact,
+                               load_share=share, steered=False, wheel_radius_m=0.1,
+                               motor_names=g.motor_names)
+
+    if ok:
+        assert make().load_share.sum() == pytest.approx(1.0, abs=1e-11)
+    else:
+        with pytest.raises(ConfigError, match="load_share"):
+            make()
