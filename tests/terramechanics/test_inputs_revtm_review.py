@@ -40,31 +40,35 @@ def test_grade_resistance_passes_a_nan_pitch_as_nan():
     assert np.isnan(grade_resistance_n(50.0, np.nan))
 
 
-@pytest.mark.parametrize("which", ["normal_load_n", "v_lateral_m_s"])
-@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
-def test_lateral_force_refuses_loads_and_speeds_that_are_not_numbers(which, bad):
+#: relation, its two array arguments (valid values), and how it is called
+PAIRS = {
     # None raised "'<' not supported between 'NoneType' and 'float'", text NumPy's
     # UFuncTypeError, True a lateral speed of 1 m/s
-    args = {"normal_load_n": np.array([100.0, 120.0]), "v_lateral_m_s": np.array([0.1, -0.1])}
-    args[which] = bad
-    with pytest.raises(DataFormatError, match=rf"lateral_force_and_slope: {which} must be"):
-        lateral_force_n(0.5, **args)
+    "lateral_force_and_slope": (lambda **a: lateral_force_n(0.5, **a), {
+        "normal_load_n": np.array([100.0, 120.0]), "v_lateral_m_s": np.array([0.1, -0.1])}),
+    # None gave NaN forces, True a full slip, text a bare ValueError
+    "combined_slip_coefficients": (
+        lambda **a: combined_slip_coefficients(ASPHALT, side_force_factor=0.8, **a), {
+            "slip_long": np.array([0.1, 0.2]), "slip_side": np.array([0.0, 0.05])}),
+    # None gave a NaN speed, True a slip of 1 (ground speed 0), text a bare ValueError
+    "ground_speed_from_slip": (ground_speed_from_slip, {
+        "rim_speed_m_s": np.array([0.5, 0.6]), "slip": np.array([0.1, -0.1])}),
+}
+
+
+@pytest.mark.parametrize("owner,which", [(o, w) for o, (_, a) in PAIRS.items() for w in a])
+@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
+def test_relations_refuse_array_arguments_that_are_not_numbers(owner, which, bad):
+    call, valid = PAIRS[owner]
+    args = dict(valid, **{which: bad})
+    with pytest.raises(DataFormatError, match=rf"{owner}: {which} must be"):
+        call(**args)
 
 
 def test_lateral_force_refuses_loads_and_speeds_of_other_shapes():
     with pytest.raises(ShapeError, match=r"normal_load_n of shape \(3,\) and v_lateral_m_s of "
                                          r"shape \(2,\)"):
         lateral_force_and_slope(0.5, np.ones(3), np.ones(2))
-
-
-@pytest.mark.parametrize("which", ["slip_long", "slip_side"])
-@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
-def test_combined_slip_refuses_slips_that_are_not_numbers(which, bad):
-    # None gave NaN forces, True a full slip, text a bare ValueError
-    args = {"slip_long": np.array([0.1, 0.2]), "slip_side": np.array([0.0, 0.05])}
-    args[which] = bad
-    with pytest.raises(DataFormatError, match=rf"combined_slip_coefficients: {which} must be"):
-        combined_slip_coefficients(ASPHALT, side_force_factor=0.8, **args)
 
 
 def test_combined_slip_refuses_slips_of_other_shapes():
@@ -80,16 +84,6 @@ def test_sae_slip_refuses_boolean_speeds(which, bad):
     args[which] = bad
     with pytest.raises(DataFormatError, match=rf"sae_slip: {which} must hold numbers"):
         sae_slip(**args)
-
-
-@pytest.mark.parametrize("which", ["rim_speed_m_s", "slip"])
-@pytest.mark.parametrize("bad", NOT_NUMBERS, ids=repr)
-def test_ground_speed_from_slip_refuses_inputs_that_are_not_numbers(which, bad):
-    # None gave a NaN speed, True a slip of 1 (ground speed 0), text a bare ValueError
-    args = {"rim_speed_m_s": np.array([0.5, 0.6]), "slip": np.array([0.1, -0.1])}
-    args[which] = bad
-    with pytest.raises(DataFormatError, match=rf"ground_speed_from_slip: {which} must be"):
-        ground_speed_from_slip(**args)
 
 
 def test_ground_speed_from_slip_refuses_inputs_of_other_shapes():
