@@ -105,6 +105,12 @@ def in_dead_band(rim_speed_m_s: np.ndarray, v_long_m_s: np.ndarray,
     return (np.abs(rim_speed_m_s) < dead_band_m_s) & (np.abs(v_long_m_s) < dead_band_m_s)
 
 
+def _floats(value) -> bool:
+    """Whether ``value`` is a float or an array of floats (no boolean to refuse in it)."""
+    return isinstance(value, float) or (isinstance(value, np.ndarray)
+                                        and value.dtype.kind == "f")
+
+
 def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, *,
              speed_floor_m_s: float = 0.0, dead_band_m_s: float = THESIS_DEAD_BAND_M_S,
              saturation: float = 1.0) -> np.ndarray:
@@ -147,9 +153,11 @@ def sae_slip(rim_speed_m_s: np.ndarray | float, v_long_m_s: np.ndarray | float, 
         Speeds whose shapes do not broadcast.
     """
     _check(speed_floor_m_s, dead_band_m_s, saturation)
-    # a mask passed for a speed was a speed of 1 m/s
-    refuse_booleans(DataFormatError, "sae_slip", rim_speed_m_s=rim_speed_m_s,
-                    v_long_m_s=v_long_m_s)
+    # a mask passed for a speed was a speed of 1 m/s (floats, the simulator's every step,
+    # pass on two type tests: the full check cost 6 us a call, 2 % of a simulated minute)
+    if not (_floats(rim_speed_m_s) and _floats(v_long_m_s)):
+        refuse_booleans(DataFormatError, "sae_slip", rim_speed_m_s=rim_speed_m_s,
+                        v_long_m_s=v_long_m_s)
     try:
         if rim_speed_m_s is None or v_long_m_s is None:  # asarray would make it NaN
             raise TypeError("got None")
