@@ -442,12 +442,18 @@ def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray
     table's end (ICE's flat top, Burckhardt with a falling side) keeps the end of its
     stable side there.
 
+    An infinite end is beyond the maximum like any other: ``+inf`` as the upper end gives
+    +1, ``-inf`` as the lower end -1 (the limit of ever larger finite ends). On a curve
+    rising to full slip, an interval with one infinite end is infinitely wide, so its
+    other end is the opposite full slip; two ends at the same infinity have width 0, as
+    any two equal ends (``inf - inf`` would be NaN). A NaN end stays NaN.
+
     Parameters
     ----------
     curve : TractionCurve
         Terrain's traction-slip curve.
     mu_low, mu_high : ndarray, shape (n, m)
-        Ends of the gross traction coefficient interval (dimensionless).
+        Ends of the gross traction coefficient interval (dimensionless; +-inf allowed).
 
     Returns
     -------
@@ -461,7 +467,11 @@ def _slip_interval(curve, mu_low: np.ndarray, mu_high: np.ndarray
     s_grid, mu_grid = stable_side(curve)
     if s_grid[-1] >= 1.0:
         # no slip past the peak: the top of the curve, of the interval's width
-        top = mu_grid[-1] - (np.asarray(mu_high, float) - np.asarray(mu_low, float))
+        high, low = np.asarray(mu_high, float), np.asarray(mu_low, float)
+        # equal ends have width 0, the same infinity included (inf - inf is NaN)
+        with np.errstate(invalid="ignore"):
+            width = high - low
+        top = mu_grid[-1] - np.where(high == low, 0.0, width)
         at_top = slip_from_traction(curve, top).slip
         lower = np.where(lo.saturated & (mu_low > 0), np.minimum(at_top, lower), lower)
         upper = np.where(hi.saturated & (mu_high < 0), np.maximum(-at_top, upper), upper)

@@ -169,7 +169,8 @@ def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,
         Traction-slip curve.
     mu : float or ndarray, shape (...)
         Gross traction coefficient (force over normal load), dimensionless; NaN passes
-        through.
+        through (slip NaN, not saturated); +-inf is beyond the curve's maximum (slip +-peak
+        slip, saturated).
     points : int
         Resolution of the tabulated stable side (an integer >= 2, :func:`stable_side`).
 
@@ -190,5 +191,8 @@ def slip_from_traction(curve: TractionCurve, mu: np.ndarray | float,
     s_grid, mu_grid = stable_side(curve, points)
     mag = np.abs(m)
     slip = np.sign(m) * np.interp(mag, mu_grid, s_grid)
-    saturated = mag >= mu_grid[-1]
-    return StableSlip(np.where(np.isfinite(m), slip, np.nan), saturated & np.isfinite(m))
+    # np.interp reads +-inf as past the table's end (the peak slip); only NaN is unknown
+    # (every non-finite mu was masked to a NaN slip, not saturated, before)
+    unknown = np.isnan(m)
+    saturated = (mag >= mu_grid[-1]) & ~unknown
+    return StableSlip(np.where(unknown, np.nan, slip), saturated)

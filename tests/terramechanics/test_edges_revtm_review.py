@@ -27,11 +27,6 @@ def test_patch_mobilisation_keeps_a_numpy_residual_ratio():
         np.testing.assert_array_equal(got, want)
 
 
-@pytest.mark.xfail(strict=True, reason="slip_from_traction masks every non-finite mu to a NaN "
-                   "slip with saturated False, although an infinite |mu| is beyond the "
-                   "curve's maximum (the docstring's 'saturated'); fixing it changes what the "
-                   "physics slip interval (terrain.slip.physics._slip_interval) returns for an "
-                   "infinite bound: left for the owner")
 @pytest.mark.parametrize("sign", [1.0, -1.0])
 def test_an_infinite_traction_is_saturated_at_the_peak_slip(sign):
     curve = get_terrain("ASPHALT").curve
