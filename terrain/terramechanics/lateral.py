@@ -48,6 +48,7 @@ Rigid surfaces keep the Coulomb law of
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, replace
 from functools import cached_property
 from types import MappingProxyType
@@ -57,9 +58,9 @@ import numpy as np
 from scipy.optimize import brentq
 
 from terrain.errors import (ConfigError, ShapeError, config_flags, config_integer,
-                            config_numbers, config_positive)
-from terrain.terramechanics.resistance import (bekker_sinkage_m, check_slide_speed,
-                                               compaction_resistance_n)
+                            config_numbers, config_positive, refuse_booleans)
+from terrain.terramechanics.resistance import (bekker_sinkage_m, check_lengths,
+                                               check_slide_speed, compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
                                              curve_resistance_terms,
                                              curve_traction_terms, patch_mobilisation)
@@ -286,6 +287,28 @@ SOILS: Mapping[str, SoilParams] = MappingProxyType({
 })
 
 
+def _check_length_array(owner: str, name: str, value) -> None:
+    """Refuse a length or array of lengths, m, holding a value that is not finite and >= 0
+    (ConfigError naming ``owner.name`` and the first such flat index; 0 is a rim without a
+    footprint, a wall of no width); a float in range passes on one ``isinstance`` test."""
+    if isinstance(value, float) and 0.0 <= value < math.inf:
+        return
+    if np.ndim(value) == 0:
+        config_positive(owner, allow_zero=True, **{name: value})
+        return
+    refuse_booleans(ConfigError, owner, **{name: value})
+    x = np.asarray(value)
+    if x.dtype.kind not in "iuf":
+        raise ConfigError(f"{owner}.{name} must be real lengths, m, got an array of "
+                          f"dtype {x.dtype}")
+    bad = ~((x >= 0.0) & (x < math.inf))
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise ConfigError(f"{owner}.{name} must hold finite lengths >= 0 m, got "
+                          f"{int(bad.sum())} that are not, the first {float(x.flat[i])!r} at flat "
+                          f"index {i}")
+
+
 def max_sinkage_m(wheel_radius_m: float, soil: SoilParams) -> float:
     """Deepest a wheel sinks: its radius, or the soil's layer depth where that is less.
 
@@ -300,7 +323,14 @@ def max_sinkage_m(wheel_radius_m: float, soil: SoilParams) -> float:
     -------
     float
         ``z_max``, m.
+
+    Raises
+    ------
+    ConfigError
+        ``wheel_radius_m`` not a finite length > 0 (a negative radius was returned as a
+        negative deepest sinkage, NaN as NaN).
     """
+    check_lengths("max_sinkage_m", wheel_radius_m=wheel_radius_m)
     if soil.layer_depth_m is None:
         return wheel_radius_m
     return min(wheel_radius_m, soil.layer_depth_m)
@@ -447,7 +477,15 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
     -------
     float or ndarray, shape (c,)
         N (a float for scalar inputs).
+
+    Raises
+    ------
+    ConfigError
+        ``wall_width_m`` holding a value that is not a finite length >= 0 (a negative width
+        gave a force that pulls the wheel into its slide, NaN a NaN force), naming the
+        first such entry.
     """
+    _check_length_array("bulldozing_force_n", "wall_width_m", wall_width_m)
     phi = np.radians(soil.friction_angle_deg)
     n_c, _, n_g = bearing_capacity_factors(soil.friction_angle_deg)
     cos2 = np.cos(phi) ** 2
@@ -476,7 +514,16 @@ def contact_chord_m(sinkage_m: np.ndarray, wheel_radius_m: float,
     -------
     ndarray, shape (c,) (0-d for scalar inputs)
         l, m (Wong ch. 2.2, the chord of the sunk rim).
+
+    Raises
+    ------
+    ConfigError
+        ``wheel_radius_m`` not a finite length > 0 (a negative radius gave the firm
+        footprint at any sinkage), or ``footprint_length_m`` holding a value that is not a
+        finite length >= 0 (0: a rim without a footprint; a negative one was read as 0).
     """
+    check_lengths("contact_chord_m", wheel_radius_m=wheel_radius_m)
+    _check_length_array("contact_chord_m", "footprint_length_m", footprint_length_m)
     z = np.asarray(sinkage_m, dtype=float)
     chord = 2.0 * np.sqrt(np.maximum(2.0 * wheel_radius_m * z - z * z, 0.0))
     return np.maximum(footprint_length_m, chord)
@@ -542,6 +589,11 @@ class SoilContact:
     length_grid_m: np.ndarray
     sinkage_grid_m: np.ndarray
     shear_grid_n: np.ndarray
+
+    def __post_init__(self) -> None:
+        # (built directly, a negative width or radius was kept and reached every lateral
+        # force of the contact)
+        check_lengths("SoilContact", width_m=self.width_m, wheel_radius_m=self.wheel_radius_m)
 
 
 def soil_contact(soil: SoilParams, width_m: float, footprint_length_m: float,
@@ -613,7 +665,15 @@ def lateral_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarr
     -------
     ndarray, shape (c,)
         ``S``, N (0 for an unloaded wheel).
+
+    Raises
+    ------
+    ConfigError
+        ``width_m`` not a finite length > 0 (a negative width took the cohesion off the
+        strength, ``True`` was a 1 m wide contact), or a ``contact_length_m`` that
+        :func:`bulldozing_force_n` refuses.
     """
+    check_lengths("lateral_strength_n", width_m=width_m)
     load = np.asarray(normal_load_n, dtype=float)
     length = np.asarray(contact_length_m, dtype=float)
     strength = (shear_strength_n(soil, width_m, load, length)
@@ -642,7 +702,14 @@ def shear_strength_n(soil: SoilParams, width_m: float, normal_load_n: np.ndarray
     -------
     ndarray, shape (c,)
         N.
+
+    Raises
+    ------
+    ConfigError
+        ``width_m`` not a finite length > 0 (a negative width took the cohesion off the
+        strength, NaN gave NaN).
     """
+    check_lengths("shear_strength_n", width_m=width_m)
     tan_phi = np.tan(np.radians(soil.friction_angle_deg))
     return (soil.cohesion_pa * (width_m * np.asarray(contact_length_m, dtype=float))
             + np.asarray(normal_load_n, dtype=float) * tan_phi)

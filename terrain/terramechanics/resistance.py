@@ -117,6 +117,32 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
     return mass_kg * G_M_S2 * np.sin(pitch)
 
 
+def check_lengths(owner: str, **lengths: float) -> None:
+    """Refuse geometric arguments that are not finite lengths > 0, m (a contact width, a
+    wheel radius, a footprint length): a negative one flipped the sign of a force or a
+    sinkage, 0 divided by zero, NaN gave NaN, ``True`` was a length of 1 m.
+
+    Called on the simulator's soil-contact steps: floats in range (NumPy's too) pass on
+    ``isinstance`` tests; anything else goes through :func:`terrain.errors.config_positive`.
+
+    Parameters
+    ----------
+    owner : str
+        The relation's name, for the message.
+    **lengths : float
+        Argument name -> length, m.
+
+    Raises
+    ------
+    ConfigError
+        A length that is not a finite real number > 0, named ``owner.argument``.
+    """
+    for value in lengths.values():
+        if not (isinstance(value, float) and 0.0 < value < math.inf):
+            config_positive(owner, **lengths)
+            return
+
+
 def check_slide_speed(owner: str, slide_speed_m_s: float) -> None:
     """Refuse a lateral law's slide speed that is not a finite value > 0, m/s (0 divides by
     zero, a negative one turns the friction into a pushing force).
@@ -320,9 +346,29 @@ def _check_bekker_plate(load_n: float, width_m: float, length_m: float, k_c: flo
     if not math.isfinite(load_n):
         raise ConfigError(f"bekker_sinkage_m.load_n must be a finite load, N, got {load_n!r}")
     config_positive("bekker_sinkage_m", width_m=width_m, length_m=length_m, n=n)
+    _refuse_bekker_soil("bekker_sinkage_m", width_m, k_c, k_phi, n)
+
+
+def _check_bekker_soil(owner: str, width_m: float, k_c: float, k_phi: float,
+                       n: float) -> None:
+    """Refuse a contact width or Bekker soil for which the pressure-sinkage relation has no
+    meaning (ConfigError naming ``owner``): floats in range return on the first test (the
+    compaction of a slip-sunk rut is evaluated on every simulator step)."""
+    if (isinstance(width_m, float) and isinstance(k_c, float) and isinstance(k_phi, float)
+            and isinstance(n, float) and 0.0 < width_m < math.inf and 0.0 < n < math.inf
+            and 0.0 < k_c / width_m + k_phi < math.inf):
+        return
+    config_numbers(owner, k_c=k_c, k_phi=k_phi)
+    config_positive(owner, width_m=width_m, n=n)
+    _refuse_bekker_soil(owner, width_m, k_c, k_phi, n)
+
+
+def _refuse_bekker_soil(owner: str, width_m: float, k_c: float, k_phi: float,
+                        n: float) -> None:
+    """Refuse a pressure-sinkage modulus ``k_c / b + k_phi`` that is not finite and > 0."""
     modulus = k_c / width_m + k_phi
     if not (math.isfinite(modulus) and modulus > 0.0):
-        raise ConfigError(f"bekker_sinkage_m: k_c / width_m + k_phi must be a finite modulus "
+        raise ConfigError(f"{owner}: k_c / width_m + k_phi must be a finite modulus "
                           f"> 0 N/m^(n+2), got {k_c} / {width_m} + {k_phi} = {modulus}")
 
 
@@ -416,7 +462,17 @@ def compaction_resistance_n(sinkage_m: np.ndarray | float, width_m: float, k_c: 
         ``R_c``, N.
     dresistance_dz_n_m : ndarray, shape (...)
         ``d R_c / d z = b (k_c/b + k_phi) z^n``, N/m.
+
+    Raises
+    ------
+    ConfigError
+        ``width_m`` or ``n`` not a finite value > 0 (a negative width gave a resistance
+        that pushes the wheel, 0 divided by zero, ``True`` was a 1 m wide contact),
+        ``k_c`` or ``k_phi`` not a real number, or a modulus ``k_c / width_m + k_phi``
+        that is not finite and > 0, as :func:`bekker_sinkage_m`; the message names the
+        argument.
     """
+    _check_bekker_soil("compaction_resistance_n", width_m, k_c, k_phi, n)
     z = np.maximum(np.asarray(sinkage_m, dtype=float), 0.0)
     modulus = width_m * (k_c / width_m + k_phi)
     return modulus * z ** (n + 1.0) / (n + 1.0), modulus * z ** n
