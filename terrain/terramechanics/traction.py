@@ -224,7 +224,33 @@ def _constant(abs_slip: np.ndarray, value: float) -> tuple[np.ndarray, np.ndarra
     return constant, np.zeros(shape)
 
 
-class ConstantResistance:
+class TwoHalves:
+    """Mixin of the curves whose coefficients are their two halves side by side
+    (:class:`BurckhardtCurve`, :class:`JanosiCurve`, :class:`BrixiusCurve`): their
+    ``coefficients``, from the ``traction_terms`` and ``resistance_terms`` each class
+    defines with its own equations."""
+
+    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
+        """Coefficients at slip magnitudes ``abs_slip``: the curve's ``traction_terms``
+        (its traction equation) and ``resistance_terms`` (its motion resistance law).
+
+        Parameters
+        ----------
+        abs_slip : ndarray, shape (...)
+            Slip magnitude in [0, 1].
+        soil_resistance : float
+            Constant motion resistance coefficient of the terrain (ignored by a curve with
+            its own resistance law: Brixius).
+
+        Returns
+        -------
+        CurveCoefficients
+        """
+        return CurveCoefficients(*self.traction_terms(abs_slip),
+                                 *self.resistance_terms(abs_slip, soil_resistance))
+
+
+class ConstantResistance(TwoHalves):
     """Mixin of the curves whose motion resistance is the terrain's constant coefficient
     (:class:`BurckhardtCurve`, :class:`JanosiCurve`): their ``resistance_terms``."""
 
@@ -287,25 +313,9 @@ class BurckhardtCurve(ConstantResistance):
                               f"backward), got mu(1) = {mu_full:.6g} for {self.c1}, {self.c2}, "
                               f"{self.c3}")
 
-    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
-        """:func:`burckhardt_traction` with the terrain's constant resistance.
-
-        Parameters
-        ----------
-        abs_slip : ndarray, shape (...)
-            Slip magnitude in [0, 1].
-        soil_resistance : float
-            Constant motion resistance coefficient of the terrain.
-
-        Returns
-        -------
-        CurveCoefficients
-        """
-        return CurveCoefficients(*self.traction_terms(abs_slip),
-                                 *self.resistance_terms(abs_slip, soil_resistance))
-
     def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The traction half of :meth:`coefficients`: :func:`burckhardt_traction`.
+        """The traction half of ``coefficients`` (:class:`TwoHalves`):
+        :func:`burckhardt_traction`.
 
         Parameters
         ----------
@@ -361,25 +371,9 @@ class JanosiCurve(ConstantResistance):
             raise ConfigError(f"JanosiCurve.residual_ratio must be in (0, 1) or None, got "
                               f"{self.residual_ratio}")
 
-    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
-        """:func:`janosi_traction` with the terrain's constant resistance.
-
-        Parameters
-        ----------
-        abs_slip : ndarray, shape (...)
-            Slip magnitude in [0, 1].
-        soil_resistance : float
-            Constant motion resistance coefficient of the terrain.
-
-        Returns
-        -------
-        CurveCoefficients
-        """
-        return CurveCoefficients(*self.traction_terms(abs_slip),
-                                 *self.resistance_terms(abs_slip, soil_resistance))
-
     def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The traction half of :meth:`coefficients`: :func:`janosi_traction`.
+        """The traction half of ``coefficients`` (:class:`TwoHalves`):
+        :func:`janosi_traction`.
 
         Parameters
         ----------
@@ -459,7 +453,7 @@ class JanosiCurve(ConstantResistance):
 
 
 @dataclass(frozen=True)
-class BrixiusCurve:
+class BrixiusCurve(TwoHalves):
     """Brixius gross traction curve for a given mobility number.
 
     Parameters
@@ -484,25 +478,9 @@ class BrixiusCurve:
             raise ConfigError(f"BrixiusCurve.mobility_number must be a finite number > 0, got "
                               f"{self.mobility_number}")
 
-    def coefficients(self, abs_slip: np.ndarray, soil_resistance: float) -> CurveCoefficients:
-        """:func:`brixius_traction` and :func:`brixius_motion_resistance`.
-
-        Parameters
-        ----------
-        abs_slip : ndarray, shape (...)
-            Slip magnitude in [0, 1].
-        soil_resistance : float
-            Ignored: Brixius curves carry their own motion resistance.
-
-        Returns
-        -------
-        CurveCoefficients
-        """
-        return CurveCoefficients(*self.traction_terms(abs_slip),
-                                 *self.resistance_terms(abs_slip, soil_resistance))
-
     def traction_terms(self, abs_slip: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The traction half of :meth:`coefficients`: :func:`brixius_traction`.
+        """The traction half of ``coefficients`` (:class:`TwoHalves`):
+        :func:`brixius_traction`.
 
         Parameters
         ----------
@@ -517,7 +495,8 @@ class BrixiusCurve:
 
     def resistance_terms(self, abs_slip: np.ndarray, soil_resistance: float
                          ) -> tuple[np.ndarray, np.ndarray]:
-        """The resistance half of :meth:`coefficients`: :func:`brixius_motion_resistance`.
+        """The resistance half of ``coefficients`` (:class:`TwoHalves`):
+        :func:`brixius_motion_resistance`.
 
         Parameters
         ----------
