@@ -37,10 +37,11 @@ wide interval instead of the peak slip with a small std. A curve that rises up t
 interval lying wholly at or above its maximum would map to the single point +-1 (std 0); its
 other end is then the slip at the maximum less the interval's width (the traction both the
 current and the curve allow is the top of the curve), so that interval is wide too
-(:func:`_slip_interval`). The slip estimate itself is then full slip (+-1): the current asks
-for at least the most the curve gives, so the slip is not measured, only bounded (the batch
-estimate uses the interval's centre with the physics std instead of +-1, or skips the
-window-side when the interval is not given, and counts them:
+(:func:`_slip_interval`). The slip estimate itself is then the stable side's end, the peak
+slip (+-1 only on a curve rising to full slip; :func:`slip_from_traction` saturates there):
+the current asks for at least the most the curve gives, so the slip is not measured, only
+bounded (the batch estimate uses the interval's centre with the physics std instead, or
+skips the window-side when the interval is not given, and counts them:
 :func:`terrain.slip.estimate.estimate_skid_steer_slip_run`).
 """
 
