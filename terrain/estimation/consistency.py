@@ -17,9 +17,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import stats
 
-from terrain.errors import (ConfigError, CovarianceError, EstimationError, ShapeError,
-                            config_numbers, config_positive, first_items, is_integer,
-                            refuse_booleans)
+from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
+                            ShapeError, config_flags, config_numbers, config_positive,
+                            first_items, is_integer, refuse_booleans)
+from terrain.estimation.ekf import real_array
 from terrain.estimation.model import wrap_angle
 
 
@@ -45,15 +46,24 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
         A covariance that is singular (e.g. a state with zero variance), or one that is not
         positive definite where it gives a negative NEES (``-np.eye(n)``: NEES ``-|e|^2``,
         returned before); the message names the steps.
+    NonFiniteInputError
+        NaN or inf in a covariance (the steps named): an infinite one gave a NEES of 0. A NaN
+        error (no truth at a step) gives a NaN NEES there.
     EstimationError
-        Booleans given for the errors or the covariances.
+        Booleans, text or complex numbers given for the errors or the covariances.
     """
     refuse_booleans(EstimationError, "nees", errors=errors, covariances=covariances)
-    e = np.asarray(errors, dtype=float)
-    P = np.asarray(covariances, dtype=float)
+    e = real_array(errors, "nees: errors")
+    P = real_array(covariances, "nees: covariances")
     if e.ndim != 2 or P.shape != (e.shape[0], e.shape[1], e.shape[1]):
         raise ShapeError(f"errors (N, n) and covariances (N, n, n) expected, got {e.shape} "
                          f"and {P.shape}")
+    # (an infinite covariance gave a NEES of 0, a consistent-looking value, and a NaN one
+    # NaN; a NaN error, a step without truth, stays a NaN NEES)
+    bad = np.flatnonzero(~np.isfinite(P.reshape(P.shape[0], -1)).all(axis=1))
+    if bad.size:
+        raise NonFiniteInputError(f"NEES: the covariance is not finite at "
+                                  f"{first_items(bad.tolist(), word='step')}")
     try:
         sol = np.linalg.solve(P, e[..., None])[..., 0]
     except np.linalg.LinAlgError:
@@ -89,18 +99,22 @@ def state_errors(estimates: np.ndarray, truth: np.ndarray,
     ------
     ShapeError
         ``estimates`` not 2-D, ``truth`` of another shape (a single state is not broadcast
-        over the steps), an angle column that is not an integer (a boolean, a float) or
-        one outside the ``n`` columns.
+        over the steps), ``angle_columns`` not a sequence, an angle column that is not an
+        integer (a boolean, a float) or one outside the ``n`` columns.
     EstimationError
-        Booleans given for the estimates or the truth.
+        Booleans, text or complex numbers given for the estimates or the truth.
     """
     refuse_booleans(EstimationError, "state_errors", estimates=estimates, truth=truth)
-    x = np.asarray(estimates, dtype=float)
-    t = np.asarray(truth, dtype=float)
+    x = real_array(estimates, "state_errors: estimates")
+    t = real_array(truth, "state_errors: truth")
     if x.ndim != 2 or t.shape != x.shape:
         raise ShapeError(f"estimates and truth must both be (N, n), got estimates {x.shape} "
                          f"and truth {t.shape}")
-    # (True was column 1 and 1.0 a bare IndexError: a column is an integer index)
+    # (True was column 1 and 1.0 a bare IndexError: a column is an integer index; None or
+    # one integer a bare TypeError)
+    if not isinstance(angle_columns, (tuple, list, np.ndarray)):
+        raise ShapeError(f"angle_columns must be a tuple of integer column indices, got "
+                         f"{angle_columns!r}")
     wrong = [j for j in angle_columns if not is_integer(j)]
     if wrong:
         raise ShapeError(f"angle_columns must hold integer column indices, got {wrong[0]!r}")
@@ -133,16 +147,24 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     Raises
     ------
     EstimationError
-        Booleans given for the errors (a mask of misses had an RMSE of 1 per miss).
+        Booleans given for the errors (a mask of misses had an RMSE of 1 per miss), None,
+        text or complex numbers.
+    ConfigError
+        ``ignore_nan`` not a boolean.
     """
     refuse_booleans(EstimationError, "rmse", errors=errors)
-    sq = np.asarray(errors, dtype=float) ** 2
+    config_flags("rmse", ignore_nan=ignore_nan)     # (the text "no" was True)
+    if errors is None:      # (it was an RMSE of NaN)
+        raise EstimationError("rmse: errors must hold numbers, got None")
+    sq = real_array(errors, "rmse: errors") ** 2
     return float(np.sqrt(np.nanmean(sq) if ignore_nan else np.mean(sq)))
 
 
 def _check_probability(probability: float) -> None:
     """Refuse a two-sided coverage outside (0, 1) (chi-square quantiles would be NaN)."""
     try:
+        if isinstance(probability, (str, bytes)):   # ("0.95" passed, then failed bare)
+            raise TypeError
         ok = 0.0 < float(probability) < 1.0
     except (TypeError, ValueError):
         ok = False
@@ -229,8 +251,11 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
         ``max_lag`` not an integer >= 1 (a negative one summed nearly every lag, a float
         was a bare TypeError), or ``threshold`` not a finite real number (NaN, a boolean,
         text).
+    ShapeError
+        ``series`` a scalar (or None).
     EstimationError
-        Booleans given for the series (a mask's 0/1 steps were read as a correlated signal).
+        Booleans given for the series (a mask's 0/1 steps were read as a correlated signal),
+        text or complex numbers.
     """
     _check_max_lag("integrated_autocorrelation_time", max_lag)
     refuse_booleans(EstimationError, "integrated_autocorrelation_time", series=series)
@@ -239,7 +264,10 @@ def integrated_autocorrelation_time(series: np.ndarray, max_lag: int = 2000,
     if not np.isfinite(threshold):
         raise ConfigError(f"integrated_autocorrelation_time: threshold must be a finite "
                           f"autocorrelation, e.g. 0.05, got {threshold!r}")
-    x = np.asarray(series, dtype=float)
+    x = real_array(series, "integrated_autocorrelation_time: series")
+    if x.ndim == 0:     # (a bare IndexError; None was one too)
+        raise ShapeError(f"integrated_autocorrelation_time: series must have shape (..., N), "
+                         f"got a scalar {series!r}")
     n = x.shape[-1]
     if n < 3:      # (a row holding NaN or inf was given 1 here too)
         return np.where(np.isfinite(x).all(axis=-1), 1.0, np.nan)
@@ -284,11 +312,11 @@ def effective_sample_size(series: np.ndarray, max_lag: int = 2000) -> float:
         ``series`` not one-dimensional (rows of several series were joined end to end into
         one: a (2, 500) array gave 17.9 where its rows give 500 and 4.6).
     EstimationError
-        Booleans given for the series.
+        Booleans, text or complex numbers given for the series.
     """
     _check_max_lag("effective_sample_size", max_lag)
     refuse_booleans(EstimationError, "effective_sample_size", series=series)
-    x = np.asarray(series, dtype=float)
+    x = real_array(series, "effective_sample_size: series")
     if x.ndim != 1:
         raise ShapeError(f"effective_sample_size: series must have shape (N,), got {x.shape} "
                          "(one series at a time; integrated_autocorrelation_time takes rows)")
@@ -386,13 +414,14 @@ def chi2_test(values: np.ndarray, dof: np.ndarray | float, probability: float = 
     ShapeError
         ``values`` not 1-D, or ``dof`` neither a number nor of the shape of ``values``.
     EstimationError
-        Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1), or a
-        negative value (a NEES or NIS is a quadratic form: it was averaged in).
+        Booleans given for ``values`` or ``dof`` (a mask was read as 0 and 1), text
+        (``"1"`` was parsed) or complex numbers, or a negative value (a NEES or NIS is a
+        quadratic form: it was averaged in).
     """
     _check_probability(probability)
     refuse_booleans(EstimationError, "chi2_test", values=values, dof=dof)
-    v = np.asarray(values, dtype=float)
-    dof = np.asarray(dof, dtype=float)
+    v = real_array(values, "chi2_test: values")
+    dof = real_array(dof, "chi2_test: dof")
     if v.ndim != 1 or dof.shape not in ((), v.shape):
         raise ShapeError(f"values (N,) and dof (a number or (N,)) expected, got values "
                          f"{v.shape} and dof {dof.shape}")

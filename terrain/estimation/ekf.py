@@ -38,7 +38,7 @@ from scipy.linalg import lapack
 
 from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
                             ShapeError, TimeStepError, config_integer, config_numbers,
-                            holds_booleans)
+                            holds_booleans, is_integer)
 
 #: Relative tolerance of the symmetry check of a covariance matrix.
 SYMMETRY_RTOL = 1e-6
@@ -52,6 +52,49 @@ def _refuse_booleans(v: Any, name: str) -> None:
     """Refuse a boolean array or scalar (``np.asarray(mask, float)`` silently gave 0 and 1)."""
     if holds_booleans(v):
         raise EstimationError(f"{name} must hold numbers, got booleans: {v!r}")
+
+
+def real_array(v: Any, name: str) -> np.ndarray:
+    """``v`` as a float64 array of any shape (``np.asarray(v, dtype=float)``, the same
+    values), refused when it holds booleans, text or complex numbers.
+
+    Numeric text such as ``"0.5"`` was parsed as a number and other text was a bare
+    ValueError naming nothing; an array's imaginary part was dropped with a warning only. A
+    float array passes on one type test.
+
+    Parameters
+    ----------
+    v : array_like
+        Values (any unit, any shape).
+    name : str
+        Argument name used in error messages.
+
+    Returns
+    -------
+    ndarray
+        float64, the shape of ``v`` (``v`` itself when it is a float64 array).
+
+    Raises
+    ------
+    EstimationError
+        Booleans, text, complex numbers, or anything else that does not convert to real
+        numbers (e.g. a ragged list), naming ``name``.
+    """
+    if type(v) is np.ndarray and v.dtype.kind == "f":
+        return np.asarray(v, dtype=float)
+    _refuse_booleans(v, name)
+    if isinstance(v, (str, bytes)):
+        raise EstimationError(f"{name} must hold real numbers, got text {v!r}")
+    try:
+        a = v if isinstance(v, np.ndarray) else np.asarray(v)
+        if a.dtype.kind in "USc":
+            raise EstimationError(f"{name} must hold real numbers, got {a.dtype} values "
+                                  f"such as {a.reshape(-1)[:3].tolist()}")
+        return np.asarray(a, dtype=float)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, EstimationError):
+            raise
+        raise EstimationError(f"{name} must hold real numbers ({exc})") from None
 
 
 def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
@@ -78,10 +121,10 @@ def as_vector(v: Any, name: str, size: int | None = None) -> np.ndarray:
     NonFiniteInputError
         NaN or inf entries (their indices are named).
     EstimationError
-        A boolean array (a mask is not a state or a measurement; it was read as 0 and 1).
+        A boolean array (a mask is not a state or a measurement; it was read as 0 and 1),
+        text or complex numbers.
     """
-    _refuse_booleans(v, name)
-    a = np.asarray(v, dtype=float)
+    a = real_array(v, name)
     if a.ndim != 1 or (size is not None and a.shape[0] != size):
         want = f"({size},)" if size is not None else "(n,)"
         raise ShapeError(f"{name} must have shape {want}, got {a.shape}")
@@ -119,10 +162,9 @@ def as_covariance(P: Any, size: int, name: str, *, definite: bool = False) -> np
         positive definite with ``definite``).
     EstimationError
         A boolean array (read as 0 and 1 before: ``np.eye(n, dtype=bool)`` was a unit
-        covariance).
+        covariance), text or complex numbers.
     """
-    _refuse_booleans(P, name)
-    a = np.asarray(P, dtype=float)
+    a = real_array(P, name)
     if a.ndim == 1 and a.shape[0] == size:
         a = np.diag(a)
     if a.shape != (size, size):
@@ -172,10 +214,10 @@ def checked_process_noise(Q: Any, size: int) -> np.ndarray:
 
     Raises
     ------
-    ShapeError, NonFiniteInputError, CovarianceError
-        As :func:`as_covariance` with the name ``Q``.
+    ShapeError, NonFiniteInputError, CovarianceError, EstimationError
+        As :func:`as_covariance` with the name ``Q`` (booleans were a unit covariance).
     """
-    a = np.asarray(Q, dtype=float)
+    a = real_array(Q, "Q")   # (a float array: one type test)
     # (Python comparisons on the few diagonal entries: NaN fails them; a NumPy reduction
     # costs about 2 us each)
     if a.shape == (size,):
@@ -205,15 +247,16 @@ def check_time_step(dt: float) -> float:
     Raises
     ------
     TimeStepError
-        Not a number (a boolean included), not finite or not > 0.
+        Not a number (a boolean or text included), not finite or not > 0.
     """
     try:
-        if isinstance(dt, (bool, np.bool_)):     # float(True) is a 1 s step
+        # float(True) is a 1 s step, float("0.1") a step of text
+        if isinstance(dt, (bool, np.bool_, str, bytes)):
             raise TypeError
         d = float(dt)
     except (TypeError, ValueError):
         raise TimeStepError(f"time step must be a number, got {dt!r}") from None
-    if not (np.isfinite(d) and d > 0.0):
+    if not (math.isfinite(d) and d > 0.0):     # (math: 0.1 us where NumPy took 0.5 us)
         raise TimeStepError(f"time step must be > 0 and finite, got {dt!r} s")
     return d
 
@@ -298,9 +341,13 @@ class Gate:
         Raises
         ------
         ConfigError
-            ``dof`` outside ``1 .. max_dof`` (a sensor group larger than the gate was built
-            for: raise ``max_dof``).
+            ``dof`` not an integer (1.5 was 1 and True 1; text, None and NaN bare errors) or
+            outside ``1 .. max_dof`` (a sensor group larger than the gate was built for:
+            raise ``max_dof``).
         """
+        if not is_integer(dof):
+            raise ConfigError(f"gate threshold: dof must be an integer number of rows, got "
+                              f"{dof!r}")
         d = int(dof)
         if not 1 <= d <= self._thresholds.size:
             raise ConfigError(f"gate has chi-square thresholds for 1..{self._thresholds.size} "
@@ -374,8 +421,13 @@ def predict(x: np.ndarray, P: np.ndarray, dt: float, f: Callable[..., np.ndarray
 
     Raises
     ------
-    ShapeError, NonFiniteInputError, CovarianceError, TimeStepError
+    ShapeError
+        ``f`` or ``F`` returned an array of the wrong shape (checked always); with ``check``,
+        any input of the wrong shape.
+    NonFiniteInputError, CovarianceError, TimeStepError
         Only when ``check`` is True.
+    EstimationError
+        With ``check``: booleans, text or complex numbers given for ``x``, ``P`` or ``Q``.
     """
     if check:
         x = as_vector(x, "x")
@@ -383,17 +435,24 @@ def predict(x: np.ndarray, P: np.ndarray, dt: float, f: Callable[..., np.ndarray
         dt = check_time_step(dt)
     fx = np.asarray(f(x, dt, *args), dtype=float)
     Fm = np.asarray(F(x, dt, *args), dtype=float)
-    Qm = Q(dt) if callable(Q) else np.asarray(Q, dtype=float)
+    Qm = Q(dt) if callable(Q) else Q
     n = x.shape[0]
+    # always (two tuple comparisons): an f of another length replaced the state by it, and
+    # an F of shape (n,) made F P F^T a scalar that Q broadcast into a "covariance"
+    if fx.shape != (n,):
+        raise ShapeError(f"f(x, dt) must have shape ({n},), got {fx.shape}")
+    if Fm.shape != (n, n):
+        raise ShapeError(f"F(x, dt) must have shape ({n}, {n}), got {Fm.shape}")
     if check:
         fx = as_vector(fx, "f(x, dt)", n)
-        if Fm.shape != (n, n):
-            raise ShapeError(f"F(x, dt) must have shape ({n}, {n}), got {Fm.shape}")
         if not np.isfinite(Fm).all():
             raise NonFiniteInputError("F(x, dt) has non-finite entries")
-        Qm = as_covariance(Qm, n, "Q")
-    elif Qm.ndim == 1:
-        Qm = np.diag(Qm)
+        Qm = as_covariance(Qm, n, "Q")     # (booleans were a unit Q: converted before)
+    else:
+        if not callable(Q):
+            Qm = np.asarray(Qm, dtype=float)
+        if Qm.ndim == 1:
+            Qm = np.diag(Qm)
     Pp = np.dot(np.dot(Fm, P), Fm.T) + Qm
     return fx, 0.5 * (Pp + Pp.T)
 
@@ -441,18 +500,20 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
         ``P`` not symmetric PSD or ``R`` not positive definite (``check`` True), or the
         innovation covariance ``S`` is singular or indefinite (always checked).
     ConfigError
-        A group of more rows than ``gate.max_dof``.
+        A group of more rows than ``gate.max_dof``, or (``check`` True) a ``gate`` that is
+        not a :class:`Gate` (a bare AttributeError before).
+    EstimationError
+        (``check`` True) booleans, text or complex numbers given for an array.
     """
-    n = x.shape[0]
-    y = np.asarray(y, dtype=float)
-    H = np.asarray(H, dtype=float)
-    m = y.shape[0] if y.ndim == 1 else -1
     if check:
-        x = as_vector(x, "x")
+        x = as_vector(x, "x")      # (before x.shape: None was a bare AttributeError)
         n = x.size
         P = as_covariance(P, n, "P")
         y = as_vector(y, "innovation y")
         m = y.size
+        H = real_array(H, "H")   # (a boolean H was a matrix of 0 and 1)
+        if gate is not None and not isinstance(gate, Gate):
+            raise ConfigError(f"gate must be a Gate (e.g. Gate(0.999)) or None, got {gate!r}")
         if H.shape != (m, n):
             raise ShapeError(f"H must have shape ({m}, {n}), got {H.shape}")
         if not np.isfinite(H).all():
@@ -460,6 +521,11 @@ def correct(x: np.ndarray, P: np.ndarray, y: np.ndarray, H: np.ndarray, R: np.nd
         R = as_covariance(R, m, "R", definite=True)
         if groups is not None:
             groups = _row_partition(groups, m)
+    else:
+        n = x.shape[0]
+        y = np.asarray(y, dtype=float)
+        H = np.asarray(H, dtype=float)
+        m = y.shape[0] if y.ndim == 1 else -1
     if m == 0:      # no row: nothing to correct (LAPACK's bare ValueError before)
         return x.copy(), P.copy(), Innovation(y, np.zeros((0, 0)), float("nan"),
                                               np.zeros(0, dtype=bool))
@@ -745,6 +811,10 @@ class ExtendedKalmanFilter:
     ShapeError, NonFiniteInputError, CovarianceError
         An initial state or matrix of the wrong shape (``R`` a scalar included), not finite,
         or not a covariance; ``groups`` that do not partition the rows of ``R``.
+    EstimationError
+        Booleans, text or complex numbers given for ``x0``, ``P0``, ``Q`` or ``R``.
+    ConfigError
+        A ``gate`` that is not a :class:`Gate`.
     """
 
     def __init__(self, x0: np.ndarray, P0: np.ndarray, f: Callable, F: Callable,
@@ -758,7 +828,7 @@ class ExtendedKalmanFilter:
         self._P = as_covariance(P0, n, "P0").copy()
         self._f, self._F, self._h, self._H = f, F, h, H
         self._Q = Q if callable(Q) else as_covariance(Q, n, "Q").copy()
-        R = np.array(R, dtype=float)
+        R = np.array(real_array(R, "R"))   # (a copy; booleans were a unit R)
         if R.ndim not in (1, 2):   # a scalar has no size m (R.shape[0] was a bare IndexError)
             raise ShapeError(f"R must have shape (m, m) or (m,), got {R.shape}")
         self._m = R.shape[0]
@@ -766,6 +836,8 @@ class ExtendedKalmanFilter:
         if R.ndim == 1:
             as_covariance(R, self._m, "R", definite=True)
         self._residual = residual
+        if gate is not None and not isinstance(gate, Gate):
+            raise ConfigError(f"gate must be a Gate (e.g. Gate(0.999)) or None, got {gate!r}")
         self._gate = gate
         self._groups = None if groups is None else _row_partition(groups, self._m)
         self.last_innovation: Innovation | None = None
@@ -794,6 +866,8 @@ class ExtendedKalmanFilter:
         ------
         TimeStepError
             ``dt`` not > 0 or not finite.
+        ShapeError
+            ``f`` or ``F`` returned an array of the wrong shape; nothing is changed.
         ShapeError, NonFiniteInputError, CovarianceError
             A callable ``Q`` returned a matrix of the wrong shape, non-finite, asymmetric or
             not positive semi-definite (:func:`checked_process_noise`); nothing is changed.
@@ -837,8 +911,11 @@ class ExtendedKalmanFilter:
         Raises
         ------
         ShapeError
-            ``z`` of the wrong length, or ``rows`` not distinct integers in ``0 .. m-1``.
+            ``z`` of the wrong length, ``rows`` not distinct integers in ``0 .. m-1``, or
+            ``h`` / ``H`` returned an array of the wrong shape.
         NonFiniteInputError, CovarianceError
+        EstimationError
+            Booleans, text or complex numbers given for ``z`` or ``R``.
         """
         if rows is None:
             idx = np.arange(self._m)
@@ -856,6 +933,13 @@ class ExtendedKalmanFilter:
         z = as_vector(z, "z", idx.size)
         hx = np.asarray(self._h(self._x, *args), dtype=float)
         Hm = np.asarray(self._H(self._x, *args), dtype=float)
+        n = self._x.shape[0]
+        # (an h of another length was cut to the rows of z without a word; an H of another
+        # width a bare ValueError of NumPy's dot)
+        if hx.shape != (self._m,):
+            raise ShapeError(f"h(x) must have shape ({self._m},), got {hx.shape}")
+        if Hm.shape != (self._m, n):
+            raise ShapeError(f"H(x) must have shape ({self._m}, {n}), got {Hm.shape}")
         if self._residual is None:
             y = z - hx[idx]
         elif rows is None:
@@ -868,7 +952,7 @@ class ExtendedKalmanFilter:
             R = (self._R if rows is None else self._R[idx] if self._R.ndim == 1
                  else self._R[np.ix_(idx, idx)])
         else:
-            R = np.asarray(R, dtype=float)
+            R = real_array(R, "R")      # (booleans were a unit R)
             checked = as_covariance(R, idx.size, "R", definite=True)
             R = R if R.ndim == 1 else checked
         if rows is None:

@@ -19,6 +19,8 @@ from typing import TYPE_CHECKING, Callable, ClassVar, Mapping
 
 import numpy as np
 
+from terrain.errors import ConfigError
+from terrain.estimation.ekf import check_time_step
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.common import wrap_angle
 
@@ -390,9 +392,22 @@ def diagonal_process_noise(q_diag: tuple[float, ...], q_per: str, dt: float) -> 
     Returns
     -------
     ndarray, shape (n, n)
+
+    Raises
+    ------
+    ConfigError
+        ``q_per`` neither ``"step"`` nor ``"second"`` (anything else, ``"Step"`` included,
+        was taken as per second).
+    TimeStepError
+        ``q_per = "second"`` with ``dt`` not a finite number > 0 (a negative step gave
+        negative variances, NaN a NaN ``Q``).
     """
     q = np.asarray(q_diag, dtype=float)
-    return np.diag(q if q_per == "step" else q * dt)
+    if q_per == "step":
+        return np.diag(q)
+    if q_per != "second":
+        raise ConfigError(f"q_per must be 'step' or 'second', got {q_per!r}")
+    return np.diag(q * check_time_step(dt))
 
 
 def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndarray:
