@@ -460,6 +460,79 @@ class ConfigError(TerrainError, ValueError):
 _NOT_NUMBERS = (bool, np.timedelta64)
 
 
+def real_number(cell) -> bool:
+    """Whether one value is a real number: a Python or NumPy integer or float (NaN and inf
+    included), not a boolean, nor a NumPy duration (``np.timedelta64``, a NumPy integer).
+
+    The test of :func:`first_non_number_cell` and of :func:`config_numbers`. Text (even
+    ``"1e3"`` or ``"nan"``, which NumPy and ``float()`` parse), bytes, complex numbers,
+    dates, ``decimal.Decimal`` (not a :class:`numbers.Real`: it does not mix with floats),
+    arrays and ``None`` are not.
+
+    Parameters
+    ----------
+    cell : object
+        One value.
+
+    Returns
+    -------
+    bool
+    """
+    return isinstance(cell, numbers.Real) and not isinstance(cell, _NOT_NUMBERS)
+
+
+def missing_cell(cell) -> bool:
+    """Whether one value of an object column is a missing cell: ``None``, pandas' ``NA``
+    or ``NaT`` (a NaN is a number: :func:`real_number`).
+
+    Parameters
+    ----------
+    cell : object
+        One value.
+
+    Returns
+    -------
+    bool
+    """
+    if cell is None:
+        return True
+    import pandas as pd
+
+    return cell is pd.NA or cell is pd.NaT
+
+
+def first_non_number_cell(cells, allow_missing: bool) -> int | None:
+    """Index of the first value that is not a real number (:func:`real_number`), or None:
+    the one rule of values that must be numbers, shared by the data columns (the readers'
+    clock, the alignment, the writer, the slip features' probabilities:
+    :func:`terrain.io.align.first_non_number`) and the kinematics' array arguments
+    (:func:`terrain.vehicles.common.float_arrays`).
+
+    The callers differ only on a missing cell (:func:`missing_cell`), which
+    ``allow_missing`` makes explicit: in a data column it is a missing sample, left to
+    the caller's missing-value rule, which counts or refuses it (the writer refuses it by
+    name, the readers interpolate and count an isolated empty cell); in an argument of a
+    physical relation it stands for no value, and NumPy would read ``None`` as NaN.
+
+    Parameters
+    ----------
+    cells : iterable
+        The values, in order (a column, or an array's flattened entries).
+    allow_missing : bool
+        Whether a missing cell passes (True: a data column) or is itself the first non
+        number (False: an argument).
+
+    Returns
+    -------
+    int or None
+        The 0-based index of the first offending value, None when every one passes.
+    """
+    for k, cell in enumerate(cells):
+        if not (real_number(cell) or (allow_missing and missing_cell(cell))):
+            return k
+    return None
+
+
 def config_numbers(owner: str, optional: tuple = (), **values) -> None:
     """Refuse configuration values that are not real numbers, before any range check.
 
@@ -483,12 +556,10 @@ def config_numbers(owner: str, optional: tuple = (), **values) -> None:
         NumPy duration (``np.timedelta64``), or not one real number (a list, an array of
         several numbers, an object).
     """
-    import numbers
-
     for name, value in values.items():
         if value is None and name in optional:
             continue
-        ok = isinstance(value, numbers.Real) and not isinstance(value, _NOT_NUMBERS)
+        ok = real_number(value)
         if not ok and type(value).__module__ == "numpy" and getattr(value, "shape", None) == ():
             ok = value.dtype.kind in "iuf"  # a NumPy scalar or 0-d array of a real number
         if not ok:
@@ -561,10 +632,8 @@ def config_seed(name: str, value) -> None:
         or negative.
     """
     import math
-    import numbers
 
-    if not (isinstance(value, numbers.Real) and not isinstance(value, _NOT_NUMBERS)
-            and math.isfinite(value) and int(value) == value and value >= 0):
+    if not (real_number(value) and math.isfinite(value) and int(value) == value and value >= 0):
         raise ConfigError(f"{name} must be an integer >= 0, got {value!r}")
 
 

@@ -42,7 +42,6 @@ offset is applied here. An estimated lag between streams is the business of the 
 from __future__ import annotations
 
 import functools
-import numbers
 from typing import Sequence
 
 import numba
@@ -51,7 +50,8 @@ import pandas as pd
 from scipy import signal
 
 from terrain.errors import (ConfigError, DataFormatError, TimestampError, config_integer,
-                            config_numbers, config_positive, duplicated)
+                            config_numbers, config_positive, duplicated,
+                            first_non_number_cell)
 from terrain.run import TIME, Run, clock_slack, times_out_of_order
 
 #: Default clock rate, Hz: the slowest IMU rate of the shipped datasets (Vulpi, 50 Hz), so
@@ -523,43 +523,20 @@ def check_gap_factor(owner: str, gap_factor: float) -> None:
                           f"than gap_factor x the median step is a gap), got {gap_factor!r}")
 
 
-def missing_cell(cell) -> bool:
-    """Whether a cell of an object column is missing: None, pandas' ``NA`` or ``NaT``.
-
-    Parameters
-    ----------
-    cell : object
-        One cell.
-
-    Returns
-    -------
-    bool
-    """
-    return cell is None or cell is pd.NA or cell is pd.NaT
-
-
-def real_number(cell) -> bool:
-    """Whether a cell is a real number: not a boolean, nor a ``np.timedelta64`` (a NumPy
-    integer, which counts as a real number).
-
-    Parameters
-    ----------
-    cell : object
-        One cell.
-
-    Returns
-    -------
-    bool
-    """
-    return isinstance(cell, numbers.Real) and not isinstance(cell, (bool, np.bool_,
-                                                                    np.timedelta64))
-
-
 def first_non_number(cells: pd.Series) -> int | None:
     """Row of the first cell of a column that is neither a real number nor missing (text,
-    bytes, a date, a duration, a boolean, a complex number), or None: the one rule of a
-    clock's cells, for the alignment (booleans were the times 0 and 1 s, text the numbers
-    it spells) and the writer (a date was written as its text).
+    even text that spells a number such as ``"1e3"`` or ``"nan"``, bytes, a date, a
+    duration, a boolean, a complex number, a ``decimal.Decimal``), or None: the rule of a
+    data column's cells, for the alignment's clock (booleans were the times 0 and 1 s, text
+    the numbers it spells), the writer's (a date was written as its text) and the slip
+    features' probabilities.
+
+    The cells are judged by :func:`terrain.errors.first_non_number_cell`, the rule the
+    kinematics' arguments share (:func:`terrain.vehicles.common.float_arrays`), with
+    ``allow_missing=True``: a missing cell (``None``, pandas' ``NA``, ``NaT``) is a missing
+    sample here, left to the caller's missing-value rule (the writer refuses it naming the
+    row; the readers interpolate an isolated one and count it), where an argument refuses
+    it.
 
     Parameters
     ----------
@@ -576,8 +553,7 @@ def first_non_number(cells: pd.Series) -> int | None:
         return None
     if cells.dtype.kind != "O" or isinstance(cells.dtype, pd.StringDtype):
         return 0
-    return next((k for k, c in enumerate(cells) if not (real_number(c) or missing_cell(c))),
-                None)
+    return first_non_number_cell(cells, allow_missing=True)
 
 
 def align_streams(run: Run, streams: tuple[str, ...] = ("imu", "wheels"),

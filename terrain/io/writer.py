@@ -26,8 +26,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from terrain.errors import ConfigError, DataFormatError, config_integer, duplicated
-from terrain.io.align import first_non_number, missing_cell, real_number
+from terrain.errors import (ConfigError, DataFormatError, config_integer, duplicated,
+                            missing_cell, real_number)
+from terrain.io.align import first_non_number
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
                                  check_stream, known_vehicle, parse_cells)

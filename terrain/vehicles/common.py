@@ -9,7 +9,8 @@ import numpy as np
 from numba.extending import register_jitable
 
 from terrain.errors import (ConfigError, EstimationError, config_flags, config_integer,
-                            config_positive, duplicated, refuse_booleans)
+                            config_positive, duplicated, first_non_number_cell,
+                            refuse_booleans)
 
 
 @register_jitable
@@ -54,28 +55,50 @@ def float_arrays(owner: str, **arrays) -> list[np.ndarray]:
     Raises
     ------
     EstimationError
-        An argument that holds booleans (``True`` was a speed of 1 m/s), text (``"0.5"``
-        was parsed as 0.5, ``"a"`` raised NumPy's bare ValueError that named none), ``None``
-        (NumPy's NaN), or that does not convert to numbers (a ragged list).
+        An argument that holds booleans (``True`` was a speed of 1 m/s, in a list of
+        numbers too), text or bytes (``"0.5"`` was parsed as 0.5, ``"a"`` raised NumPy's
+        bare ValueError that named none), ``None`` or pandas' ``NA`` (NumPy's NaN: a
+        missing value is no value here), complex numbers (an array of them lost its
+        imaginary part with a mere ``ComplexWarning``), dates or durations (a
+        ``datetime64`` array was read as days since 1970), or that does not convert to
+        numbers (a ragged list): :func:`_first_non_number`.
     """
     refuse_booleans(EstimationError, owner, **arrays)
     out = []
     for name, value in arrays.items():
         try:
-            if np.asarray(value).dtype.kind in "USO" and _holds_non_numbers(value):
-                raise ValueError("text or None is not a number")
-            out.append(np.asarray(value, dtype=float))
+            array = np.asarray(value)
+            # (a list of numbers may hide a boolean: NumPy made True 1.0)
+            if array.dtype.kind not in "iuf" or isinstance(value, (list, tuple)):
+                bad = _first_non_number(value, array)
+                if bad is not None:
+                    raise ValueError(bad)
+            out.append(np.asarray(array, dtype=float))
         except (TypeError, ValueError) as err:
             raise EstimationError(f"{owner}: {name} must hold numbers, got "
                                   f"{value!r:.60} ({err})") from None
     return out
 
 
-def _holds_non_numbers(value) -> bool:
-    """Whether ``value`` is or holds text (str or bytes, NumPy's included) or ``None``:
-    NumPy parses ``"0.5"`` as a number, and ``None`` as NaN, where the kinematics mean one."""
-    return any(v is None or isinstance(v, (str, bytes, np.str_, np.bytes_))
-               for v in np.asarray(value, dtype=object).ravel())
+def _first_non_number(value, array: np.ndarray) -> str | None:
+    """What in ``value`` (``array`` its ``np.asarray``) is not a real number, for the
+    message, or None: an array whose dtype holds none (text, bytes, complex, dates,
+    durations), else the first entry of an object array or of a list or tuple (a boolean
+    among numbers converts to float) that :func:`terrain.errors.first_non_number_cell`
+    refuses with ``allow_missing=False``: the rule the readers' data columns share
+    (:func:`terrain.io.align.first_non_number`), except that a missing entry (``None``,
+    ``NA``) is refused here, where NumPy read it as NaN and a data column counts it as a
+    missing sample."""
+    kind = array.dtype.kind
+    if kind not in "iufO":
+        return f"{array.dtype} is not a real number"
+    cells = (array if kind == "O" else np.asarray(value, dtype=object)).ravel()
+    # (a list keeps a 0-d array as one: its value is judged)
+    cells = [c.item() if isinstance(c, np.ndarray) and c.ndim == 0 else c for c in cells]
+    k = first_non_number_cell(cells, allow_missing=False)
+    if k is None:
+        return None
+    return f"{type(cells[k]).__name__} {cells[k]!r:.30} at index {k} is not a real number"
 
 
 def check_fields(params, positive: tuple = (), non_negative: tuple = (),
