@@ -408,36 +408,77 @@ def _file_format(frame: pd.DataFrame) -> str | None:
     return float_format(frame["time"]) if "time" in frame else FLOAT_FORMAT
 
 
-def _as_read(frame: pd.DataFrame, fmt: str | None) -> pd.DataFrame:
-    """A stream as the readers give it back from its file written with ``fmt``: its float
-    columns as ``fmt`` writes them (None: exactly), its other numeric columns as float64,
-    its text columns as they are (the writer's other checks refused every other cell)."""
+def _formatted(frame: pd.DataFrame, fmt: str | None) -> pd.DataFrame:
+    """A file frame with each float column as the text its file holds: ``fmt % value``
+    (pandas' rule for ``to_csv(float_format=fmt)``; NaN, which the writer refuses before,
+    as pandas' empty cell), so that the numbers are formatted once, for the file and for
+    :func:`_as_read` (pandas formatted them again, the longest cost of a long run's
+    write). ``fmt`` None: the frame as it is (pandas writes every float in full).
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        ``(n_rows, n_columns)`` one file's frame (:func:`to_file_frames`).
+    fmt : str or None
+        The file's number format (:func:`_file_format`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Same shape, columns and index; float columns as ``object`` columns of text, the
+        others as they are.
+    """
+    if fmt is None:
+        return frame
     out = {}
     for c in frame.columns:
+        cells = frame[c]
+        if cells.dtype.kind != "f":
+            out[c] = cells
+            continue
+        values = cells.to_numpy(dtype=float, na_value=np.nan)
+        text = np.array([fmt % v for v in values.tolist()], dtype=object)
+        text[np.isnan(values)] = ""
+        out[c] = pd.Series(text, index=frame.index, dtype=object)
+    return pd.DataFrame(out, index=frame.index)
+
+
+def _as_read(frame: pd.DataFrame, written: pd.DataFrame) -> pd.DataFrame:
+    """A stream as the readers give it back from its file (``written``, its
+    :func:`_formatted` frame): its float columns as their written text reads (written in
+    full: exactly), its other numeric columns as float64, its text columns as they are
+    (the writer's other checks refused every other cell)."""
+    out = {}
+    for c, w in zip(frame.columns, written.columns):
         cells = frame[c]
         if cells.dtype.kind == "O" and any(isinstance(v, str) for v in cells):
             out[c] = cells.to_numpy()
             continue
-        values = cells.to_numpy(dtype=float, na_value=np.nan)
-        if fmt is not None and cells.dtype.kind == "f":
-            values = np.array([float(fmt % v) for v in values], dtype=float)
+        if cells.dtype.kind == "f" and written[w].dtype.kind == "O":
+            text = written[w].to_numpy(dtype=object)
+            values = np.full(text.shape, np.nan)
+            filled = text != ""
+            values[filled] = text[filled].astype(float)     # float() of each text
+        else:
+            values = cells.to_numpy(dtype=float, na_value=np.nan)
         out[c] = values
     return pd.DataFrame(out)
 
 
 def _refuse_implausible(run: Run, frames: dict[str, pd.DataFrame],
-                        paths: dict[str, Path]) -> None:
+                        paths: dict[str, Path], written: dict[str, pd.DataFrame]) -> None:
     """ConfigError for a run that the readers' plausibility rules refuse (an IMU in a z-down
     frame, an accelerometer in g, a value out of its channel's range, clocks that do not
     overlap...): the readers' own rules (:func:`terrain.io.measured.check_stream` per file,
     :func:`terrain.io.plausibility.check_run` on the run) applied to the streams as they
-    would be read back from ``paths`` (``frames`` written there in :func:`_file_format`),
+    would be read back from ``paths`` (``frames`` written there as ``written``, their
+    :func:`_formatted` frames),
     the message the readers' (their error chained). Their findings (a stuck sensor) are
     left to the readers, who warn them on every read."""
     streams = {}
     try:
-        for (kind, written), (name, frame) in zip(frames.items(), run.streams.items()):
-            streams[name] = _as_read(frame, _file_format(written))
+        for kind, (name, frame) in zip(frames, run.streams.items()):
+            streams[name] = _as_read(frame, written[kind])
             mapping = COLUMN_MAPS.get(kind) or {
                 "time": TIME, **{c: c for c in frame.columns if c != TIME}}
             # (the header is line 1 of the file, row k its line k + 2)
@@ -583,8 +624,11 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     if idx in used_indexes(folder):     # any *_XX.* file, as next_index counts them
         raise ConfigError(f"run index {idx:02d} already used in {folder}")
     paths = {kind: folder / f"{kind}_{idx:02d}.csv" for kind in frames}
+    # every number formatted once: for the file and for the readers' rules
+    formats = {kind: _file_format(frame) for kind, frame in frames.items()}
+    written = {kind: _formatted(frame, formats[kind]) for kind, frame in frames.items()}
     # (an IMU in a z-down frame was written, then refused by every reader)
-    _refuse_implausible(run, frames, paths)
+    _refuse_implausible(run, frames, paths, written)
     paths["meta"] = folder / f"meta_{idx:02d}.json"
     folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
     meta = dict(run.meta)
@@ -599,8 +643,8 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     staged = {kind: path.with_name(f".{path.name}.writing") for kind, path in paths.items()}
     placed: list[Path] = []
     try:
-        for kind, frame in frames.items():
-            frame.to_csv(staged[kind], index=False, float_format=_file_format(frame))
+        for kind, frame in written.items():
+            frame.to_csv(staged[kind], index=False, float_format=formats[kind])
         # numpy scalars as JSON numbers and booleans (default=str wrote np.int64(3) as "3"),
         # NaN and inf as null (the bare token NaN is not JSON): terrain.io.jsonfile's rule
         staged["meta"].write_text(json.dumps(json_ready(meta, None), indent=2,
