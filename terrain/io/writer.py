@@ -21,13 +21,14 @@ import json
 import math
 import numbers
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from terrain.errors import (ConfigError, DataFormatError, config_integer, duplicated,
-                            missing_cell, real_number)
+from terrain.errors import (ConfigError, DataFormatError, DataWarning, config_integer,
+                            duplicated, missing_cell, real_number)
 from terrain.io.align import first_non_number
 from terrain.io.jsonfile import json_ready
 from terrain.io.measured import (COLUMN_MAPS, FILE_KIND_PATTERN, MIN_DATA_ROWS, STREAM_NAMES,
@@ -493,6 +494,12 @@ def _refuse_implausible(run: Run, frames: dict[str, pd.DataFrame],
                           f"refuse: {exc}") from exc
 
 
+def _same_vehicle(value, vehicle: str) -> bool:
+    """Whether a meta ``vehicle`` value names ``vehicle`` (text, in any case: the readers
+    lower-case it)."""
+    return isinstance(value, str) and value.lower() == vehicle.lower()
+
+
 def _json_default(value):
     """A meta value JSON cannot hold: an array as its list (NaN as null), else its text
     (``str`` of an array cut it to ``[0 1 2 ... 1997 1998 1999]`` past 1000 values)."""
@@ -564,6 +571,17 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
         writing (``KeyboardInterrupt`` included), no file of the run is left: each is
         written under a temporary name (``.<file>.writing``) and renamed into place,
         ``pro_XX.csv`` (by which the readers find a run) last.
+
+    Warns
+    -----
+    DataWarning
+        The run's ``meta`` has a ``vehicle`` other than the run's
+        :attr:`~terrain.run.Run.vehicle` (in any case; rule ``meta_keys``, as
+        :func:`terrain.io.measured.read_run` warns a key it replaces): ``meta_XX.json`` gets
+        the run's vehicle, by which the readers read the run back, and the meta's value is
+        not kept; the message names the file, the run, the key and both values. A
+        ``vehicle`` that names the run's vehicle in another case is written as the run's,
+        without a word (the readers lower-case it).
     """
     terrain = str(run.terrain or "UNLABELLED")
     if terrain in (".", "..") or any(sep in terrain for sep in "/\\\0"):
@@ -633,6 +651,13 @@ def write_run(run: Run, out_dir: str | Path, index: int | None = None) -> dict[s
     folder.mkdir(parents=True, exist_ok=True)      # after the checks: nothing written then
     meta = dict(run.meta)
     # read back as the run's vehicle: not the default, nor a stale "vehicle" of its meta
+    # (which was replaced without a word, where the readers warn a key they replace)
+    if "vehicle" in meta and not _same_vehicle(meta["vehicle"], run.vehicle):
+        warnings.warn(f"{paths['meta']}: rule meta_keys: key 'vehicle' of the metadata of run "
+                      f"{run.run_id} is {meta['vehicle']!r:.60}, the run's vehicle "
+                      f"{run.vehicle!r}: the file gets the run's (the readers read the run "
+                      "back as that vehicle) and the metadata's value is not kept",
+                      DataWarning, stacklevel=2)
     meta["vehicle"] = run.vehicle
     meta["index"] = f"{idx:02d}"
     meta["files"] = {k: p.name for k, p in paths.items() if k != "meta"}
