@@ -27,7 +27,7 @@ from typing import Callable, Mapping, Protocol
 import numpy as np
 
 from terrain.control.desired_slip import SlipTable, check_table, select_target
-from terrain.control.estimators import SlipEstimator, estimator_for
+from terrain.control.estimators import ESTIMATORS, SlipEstimator, estimator_for
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
 from terrain.errors import ConfigError, config_flags, config_numbers
@@ -109,7 +109,14 @@ def fallback_basis(table: SlipTable) -> str | None:
     str or None
         Terrain name, None for a table without entries; the same whatever the order of the
         table's classes.
+
+    Raises
+    ------
+    ConfigError
+        ``table`` not a :class:`~terrain.control.desired_slip.SlipTable`
+        (:func:`~terrain.control.desired_slip.check_table`).
     """
+    check_table(table, "fallback_basis")   # None: a bare AttributeError on entries
     if not table.entries:
         return None
     least = min(abs(e.traction) for e in table.entries.values())
@@ -573,11 +580,17 @@ def default_gains(vehicle: str, estimator: str | None = None) -> tuple[float, fl
     Raises
     ------
     ConfigError
-        Vehicle without closed-loop gains.
+        Vehicle without closed-loop gains (a list: a bare TypeError); an estimator kind
+        that is not text or not one of the vehicle's (it got the default gains unsaid).
     """
-    if vehicle not in DEFAULT_GAINS:
+    if not isinstance(vehicle, str) or vehicle not in DEFAULT_GAINS:
         raise ConfigError(f"the traction control loop supports vehicles "
                           f"{', '.join(DEFAULT_GAINS)}, got {vehicle!r}")
+    # "" is the default, as for estimator_for
+    if estimator is not None and not (isinstance(estimator, str) and (
+            estimator == "" or estimator in ESTIMATORS[vehicle])):
+        raise ConfigError(f"default_gains: estimator {estimator!r} not available for "
+                          f"{vehicle}; valid: {', '.join(ESTIMATORS[vehicle])}")
     return ESTIMATOR_GAINS.get((vehicle, estimator or ""), DEFAULT_GAINS[vehicle])
 
 

@@ -101,8 +101,11 @@ def confidence_is_trusted(confidence: float | None, min_confidence: float) -> bo
     ------
     ConfigError
         ``confidence`` not a real number or None (a boolean: ``True`` passed as a
-        probability of 1; text: Python's bare TypeError).
+        probability of 1; text: Python's bare TypeError); ``min_confidence`` not a real
+        number in [0, 1] (text, None, a boolean, NaN), named.
     """
+    if type(min_confidence) is not float or not 0.0 <= min_confidence <= 1.0:
+        config_probability("confidence_is_trusted", min_confidence=min_confidence)
     config_numbers("confidence_is_trusted", optional=("confidence",), confidence=confidence)
     return (confidence is not None and math.isfinite(confidence)
             and min_confidence <= confidence <= 1.0 + CONFIDENCE_ROUNDING)
@@ -329,10 +332,24 @@ def fallback_entry(entries: Sequence[DesiredSlip]) -> DesiredSlip:
     Raises
     ------
     ConfigError
-        Empty ``entries``.
+        Empty ``entries``; ``entries`` one row's text, a mapping (its keys are names: pass
+        ``table.entries.values()``) or holding anything but :class:`DesiredSlip` rows.
     """
+    if isinstance(entries, (str, bytes, Mapping)):
+        raise ConfigError(f"fallback_entry needs a sequence of DesiredSlip rows "
+                          f"(table.entries.values()), got {type(entries).__name__} "
+                          f"{entries!r:.60}")
+    try:   # an iterator is read once (min below reads the entries three times)
+        entries = [] if entries is None else list(entries)
+    except TypeError:
+        raise ConfigError(f"fallback_entry needs a sequence of DesiredSlip rows, got "
+                          f"{type(entries).__name__} {entries!r:.60}") from None
     if not entries:
         raise ConfigError("the desired-slip table has no entries")
+    bad = [f"entries[{i}] {type(e).__name__} {e!r:.40}" for i, e in enumerate(entries)
+           if not isinstance(e, DesiredSlip)]
+    if bad:
+        raise ConfigError(f"fallback_entry needs DesiredSlip rows, got {', '.join(bad[:3])}")
     # ties (many steady targets are 0) go to the first terrain name, so the source text does
     # not follow the order the classes were listed in
     lowest = (lambda key: min(entries, key=lambda e: (abs(getattr(e, key)),  # noqa: E731
@@ -358,6 +375,13 @@ class SlipTable:
         Conservative targets (:func:`fallback_entry`).
     config : DesiredSlipConfig
         The rules' settings and the fallback thresholds.
+
+    Raises
+    ------
+    ConfigError
+        ``entries`` not a mapping of :class:`DesiredSlip` rows, ``fallback`` not a
+        :class:`DesiredSlip` or ``config`` not a :class:`DesiredSlipConfig` (named; None
+        was taken, and :func:`select_target` stopped on a bare TypeError).
     """
 
     entries: Mapping[str, DesiredSlip]
@@ -367,8 +391,16 @@ class SlipTable:
     def __post_init__(self) -> None:
         # a read-only copy: the caller's dict stayed the entries, so changing it afterwards
         # changed the table (a class deleted there was served the fallback)
-        if isinstance(self.entries, Mapping):
-            object.__setattr__(self, "entries", MappingProxyType(dict(self.entries)))
+        if not isinstance(self.entries, Mapping) or not all(
+                isinstance(e, DesiredSlip) for e in self.entries.values()):
+            raise ConfigError(f"SlipTable.entries must map class labels to DesiredSlip rows, "
+                              f"got {type(self.entries).__name__} {self.entries!r:.60}")
+        for name, kind in (("fallback", DesiredSlip), ("config", DesiredSlipConfig)):
+            if not isinstance(getattr(self, name), kind):
+                raise ConfigError(f"SlipTable.{name} must be a {kind.__name__}, got "
+                                  f"{type(getattr(self, name)).__name__} "
+                                  f"{getattr(self, name)!r:.60}")
+        object.__setattr__(self, "entries", MappingProxyType(dict(self.entries)))
 
     def __reduce__(self):
         """Copy and pickle through a plain dict of the entries (a mappingproxy does

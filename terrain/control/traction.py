@@ -255,17 +255,24 @@ def encoder_resolution_speed_m_s(motor, wheel_radius_m: float,
     ------
     ConfigError
         ``slip_resolution`` or the wheel radius not a real number (text, ``None``, a
-        boolean; named), or not finite and > 0.
+        boolean; named), or not finite and > 0; ``motor`` without ``encoder_filter_s`` and
+        ``encoder_quantum_rad`` (None, a vehicle name).
     """
     config_numbers("encoder_resolution_speed_m_s", wheel_radius_m=wheel_radius_m,
                    slip_resolution=slip_resolution)
     if not (0 < slip_resolution < math.inf and 0 < wheel_radius_m < math.inf):  # NaN fails
         raise ConfigError(f"slip_resolution and wheel_radius_m must be finite and > 0, got "
                           f"{slip_resolution}, {wheel_radius_m}")
-    tau = float(motor.encoder_filter_s)
-    if tau <= 0:
-        return 0.0
-    return float(wheel_radius_m) * motor.encoder_quantum_rad / (tau * float(slip_resolution))
+    try:
+        tau = float(motor.encoder_filter_s)
+        if tau <= 0:
+            return 0.0
+        quantum = motor.encoder_quantum_rad
+    except AttributeError:   # None, a vehicle's name
+        raise ConfigError(f"encoder_resolution_speed_m_s: motor must be a drive "
+                          f"(MotorParams, get_vehicle(name).motor), got "
+                          f"{type(motor).__name__} {motor!r:.60}") from None
+    return float(wheel_radius_m) * quantum / (tau * float(slip_resolution))
 
 
 @dataclass(frozen=True)
@@ -363,7 +370,20 @@ def age_is_fresh(age_s: float, max_age_s: float) -> bool:
     -------
     bool
         False for an age that is older, negative, not finite (NaN, +-inf) or None.
+
+    Raises
+    ------
+    ConfigError
+        ``age_s`` not a real number or None (text, a boolean: ``True`` was an age of 1 s, an
+        array), or ``max_age_s`` not a real number, or not finite and >= 0 (NaN made every
+        input stale, inf none), named.
     """
+    if type(age_s) is float and type(max_age_s) is float and 0.0 <= max_age_s < math.inf:
+        return math.isfinite(age_s) and 0.0 <= age_s <= max_age_s   # (the step's every call)
+    config_numbers("age_is_fresh", optional=("age_s",), age_s=age_s, max_age_s=max_age_s)
+    if not 0.0 <= max_age_s < math.inf:
+        raise ConfigError(f"age_is_fresh.max_age_s must be a finite age >= 0 s, got "
+                          f"{max_age_s}")
     return age_s is not None and math.isfinite(age_s) and 0.0 <= age_s <= max_age_s
 
 
@@ -407,7 +427,14 @@ class TractionState(NamedTuple):
         Returns
         -------
         TractionState
+
+        Raises
+        ------
+        ConfigError
+            ``n`` not an integer >= 1 (``True``, 2.5, text, None: bare NumPy errors; 0: a
+            state the step refuses).
         """
+        config_integer("TractionState.zeros n", n, 1)
         z = np.zeros(n)
         no = np.zeros(n, dtype=bool)
         return cls(z, z, no, z, z, no)
@@ -500,6 +527,7 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
     Raises
     ------
     ConfigError
+        ``config`` not a :class:`TractionControlConfig` (a dict of settings, None);
         ``targets`` without the attributes ``traction``, ``braking``, ``steady`` (a plain
         tuple, None), named; a ``state`` that is not a :class:`TractionState` of NumPy
         arrays (lists read back from a log, None); a record's target that is not a real
@@ -516,6 +544,8 @@ def traction_control_step(config: TractionControlConfig, state: TractionState,
         (a non-finite measurement or estimate only suspends the correction, as before);
         a negative ``chassis_speed_m_s`` (a signed speed, not a magnitude).
     """
+    if not isinstance(config, TractionControlConfig):   # a bare AttributeError further down
+        _refuse_config(config, "traction control step")
     cfg = config
     _refuse_booleans(omega_low_level_rad_s=omega_low_level_rad_s,
                      omega_meas_rad_s=omega_meas_rad_s, v_long_m_s=v_long_m_s,
@@ -694,6 +724,15 @@ def _check_record_targets(traction, braking, steady) -> None:
     check_slip_targets("traction control step targets", *known)
 
 
+def _refuse_config(config, owner: str) -> None:
+    """Raise the :class:`ConfigError` of a ``config`` that is not a
+    :class:`TractionControlConfig` (a dict of its settings, None: a bare AttributeError on
+    ``wheel_radius_m`` at the first step)."""
+    raise ConfigError(f"{owner}: config must be a TractionControlConfig (or "
+                      f"config_for_vehicle(name)[0]), got {type(config).__name__} "
+                      f"{config!r:.60}")
+
+
 def _refuse_booleans(**inputs) -> None:
     """Raise a :class:`~terrain.errors.DataFormatError` naming the first input that is a
     boolean or holds booleans: ``float(True)`` is 1, so ``dt_s=True`` integrated over a whole
@@ -716,10 +755,13 @@ class TractionController:
     Raises
     ------
     ConfigError
-        ``n_units`` not an integer >= 1 (2.5 or True included).
+        ``config`` not a :class:`TractionControlConfig`; ``n_units`` not an integer >= 1
+        (2.5 or True included).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int) -> None:
+        if not isinstance(config, TractionControlConfig):   # (it failed at the first step)
+            _refuse_config(config, "TractionController")
         config_integer("TractionController n_units", n_units, 1)
         self.config = config
         self.n_units = int(n_units)
