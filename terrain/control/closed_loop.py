@@ -200,7 +200,9 @@ class TractionLoop:
         ``feed_forward`` not a boolean (``"no"``, 0; named); ``n_units`` not an integer
         >= 1 (:class:`~terrain.control.traction.TractionController`); ``table`` not a
         :class:`~terrain.control.desired_slip.SlipTable`
-        (:func:`~terrain.control.desired_slip.check_table`).
+        (:func:`~terrain.control.desired_slip.check_table`); ``terrain_decision`` not
+        callable, ``observer`` neither callable nor None, or ``estimator`` without an
+        ``update`` method (named; each failed at the first call).
     """
 
     def __init__(self, config: TractionControlConfig, n_units: int, estimator: SlipEstimator,
@@ -215,6 +217,15 @@ class TractionLoop:
             raise ConfigError(f"TractionLoop accel_tau_s must be a finite time constant >= 0 "
                               f"s (0 = no filter), got {accel_tau_s}")
         check_table(table, "TractionLoop")   # (fallback_basis read table.entries)
+        if not callable(terrain_decision):
+            raise ConfigError(f"TractionLoop: terrain_decision must be a function of the time, "
+                              f"got {type(terrain_decision).__name__} {terrain_decision!r:.60}")
+        if observer is not None and not callable(observer):
+            raise ConfigError(f"TractionLoop: observer must be a function or None, got "
+                              f"{type(observer).__name__} {observer!r:.60}")
+        if not callable(getattr(estimator, "update", None)):
+            raise ConfigError(f"TractionLoop: estimator must be a SlipEstimator (estimator_for"
+                              f"(vehicle)), got {type(estimator).__name__} {estimator!r:.60}")
         self.controller = TractionController(config, n_units)
         self.observer = observer
         self.feed_forward = bool(feed_forward)

@@ -502,12 +502,17 @@ def select_target(table: SlipTable, terrain: str | None, confidence: float = 1.0
     ------
     ConfigError
         ``table`` not a :class:`SlipTable` (:func:`check_table`); ``confidence`` or
-        ``decision_age_s`` not a real number or None (text, a bool).
+        ``decision_age_s`` not a real number or None (text, a bool); ``terrain`` neither
+        text nor None (bytes ``b"ICE"``, an array, a number: read as ``"B'ICE'"`` and
+        given the fallback unsaid).
     """
     check_table(table, "select_target")
     # True passed as a confidence of 1, text failed inside numpy's isfinite
     config_numbers("select_target", optional=("confidence", "decision_age_s"),
                    confidence=confidence, decision_age_s=decision_age_s)
+    if terrain is not None and not isinstance(terrain, str):
+        raise ConfigError(f"select_target: terrain must be a class label (text) or None, got "
+                          f"{type(terrain).__name__} {terrain!r:.60}")
     cfg = table.config
     key = None if terrain is None else str(terrain).upper()
     trusted = (key in table.entries and confidence_is_trusted(confidence, cfg.min_confidence)

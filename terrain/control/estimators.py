@@ -167,8 +167,8 @@ class AgriMaRoVisualOdometryEKF:
     Raises
     ------
     ConfigError
-        Another ``imu`` view; a block or a speed-slope window that is not a finite number
-        > 0; ``adapt_blocks`` not an integer >= 2 (named).
+        Another ``imu`` view; an accelerometer std, a block or a speed-slope window that is
+        not a finite number > 0; ``adapt_blocks`` not an integer >= 2 (named).
 
     Notes
     -----
@@ -191,8 +191,8 @@ class AgriMaRoVisualOdometryEKF:
                               f"AgriMaRo EKF, got {imu!r}")
         # inf: a block that never closes (the accelerometer never read), a speed window that
         # keeps the whole run; 2.7 blocks were read as 2
-        config_positive("AgriMaRoVisualOdometryEKF", accel_block_s=accel_block_s,
-                        speed_slope_s=speed_slope_s)
+        config_positive("AgriMaRoVisualOdometryEKF", accel_std_m_s2=accel_std_m_s2,
+                        accel_block_s=accel_block_s, speed_slope_s=speed_slope_s)
         config_integer("AgriMaRoVisualOdometryEKF adapt_blocks", adapt_blocks, 2)
         self.speed_slope_s = float(speed_slope_s)
         # (t, v_long) of the calls within speed_slope_s (``full-gyro``)
@@ -370,6 +370,15 @@ class AgriMaRoVisualOdometryEKF:
             r = np.maximum(r, np.mean(self._block_var, axis=0))
         self.ekf.update(mean, rows=rows[:2], R=r)
         self.accel_block_std_m_s2 = np.sqrt(r)
+
+
+def _check_callable(owner: str, **functions) -> None:
+    """Raise a :class:`ConfigError` naming each argument of ``functions`` that is neither
+    callable nor None (a label, a number: a bare TypeError at the first call that used it)."""
+    for name, f in functions.items():
+        if f is not None and not callable(f):
+            raise ConfigError(f"{owner}: {name} must be a function or None, got "
+                              f"{type(f).__name__} {f!r:.60}")
 
 
 def _skid_steer(owner: str, vehicle: str) -> HuskyParams | TrackedParams:
@@ -589,7 +598,8 @@ class FusedSlipObserver:
     ------
     ConfigError
         A window or period that is not a finite number > 0; an unknown ``imu`` view; an
-        unknown vehicle or one that is not a skid-steer (``agrimaro``).
+        unknown vehicle or one that is not a skid-steer (``agrimaro``); a
+        ``terrain_decision`` that is neither callable nor None (named).
     """
 
     def __init__(self, vehicle: str = "husky",
@@ -600,6 +610,7 @@ class FusedSlipObserver:
                  imu: str = "full-gyro") -> None:
         # inf: a window that keeps every sample, a period that never gives a pseudo-measurement
         config_positive("FusedSlipObserver", window_s=window_s, period_s=period_s)
+        _check_callable("FusedSlipObserver", terrain_decision=terrain_decision)
         if imu not in IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
         self.imu = imu
@@ -807,9 +818,9 @@ def estimator_for(vehicle: str, terrain_decision: Callable[[float], tuple] | Non
     Raises
     ------
     ConfigError
-        Another vehicle, or a kind not available for it.
+        Another vehicle (text or not), or a kind not available for it.
     """
-    if vehicle not in ESTIMATORS:
+    if not isinstance(vehicle, str) or vehicle not in ESTIMATORS:   # a list: unhashable
         raise ConfigError(f"no closed-loop estimator for vehicle {vehicle!r}; valid: "
                           f"{', '.join(ESTIMATORS)}")
     kind = kind or ESTIMATORS[vehicle][0]
