@@ -396,7 +396,14 @@ def hann_taper(n_samples: int) -> np.ndarray:
     -------
     numpy.ndarray
         ``(n_samples,)`` dimensionless taper.
+
+    Raises
+    ------
+    ConfigError
+        ``n_samples`` not an integer >= 1 (0, 2.5 and None were SciPy's bare ValueError or
+        TypeError, ``True`` too).
     """
+    config_integer("hann_taper.n_samples", n_samples, 1)
     return signal.get_window("hann", n_samples)
 
 
@@ -434,17 +441,40 @@ def band_log_power(x: np.ndarray, rate_hz: float,
         finite at -12: a density near 1e-12 reads above its own log and does not scale with
         the signal).
 
+        A NaN or inf sample makes every band of its window and channel NaN.
+
     Raises
     ------
     ConfigError
-        A band :func:`band_weights` refuses (when ``weights`` is not given).
+        A band :func:`band_weights` refuses (when ``weights`` is not given), or ``rate_hz``
+        not a finite number > 0 (with ``weights`` given, 0 Hz was a NaN density).
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text).
+    ShapeError
+        ``x`` a scalar (or None) or of fewer than 2 samples per row (one sample, the mean
+        removed, read as a band power of exactly 0: ``-12``), or ``weights`` / ``taper``
+        not of this window length (``(n_samples // 2 + 1, n_bands)`` / ``(n_samples,)``;
+        NumPy's bare matmul or broadcasting error).
     """
     x, = real_arrays("band_log_power", x=x)
+    if x.ndim < 1 or x.shape[-1] < 2:
+        raise ShapeError(f"band_log_power: x needs at least 2 samples per row (a spectrum), "
+                         f"got shape {x.shape}")
     n = x.shape[-1]
+    if weights is None:
+        weights = band_weights(n, rate_hz, bands_hz)
+    else:
+        # (band_weights checks it otherwise; fast path for the transformers' float rate)
+        if not (isinstance(rate_hz, float) and 0.0 < rate_hz < np.inf):
+            config_positive("band_log_power", rate_hz=rate_hz)
+        if np.ndim(weights) != 2 or np.shape(weights)[0] != n // 2 + 1:
+            raise ShapeError(f"band_log_power: weights of shape {np.shape(weights)} for "
+                             f"windows of {n} samples; band_weights gives "
+                             f"({n // 2 + 1}, n_bands)")
     taper = hann_taper(n) if taper is None else taper
-    weights = band_weights(n, rate_hz, bands_hz) if weights is None else weights
+    if np.shape(taper) != (n,):
+        raise ShapeError(f"band_log_power: taper of shape {np.shape(taper)} for windows of "
+                         f"{n} samples")
     spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
     psd = (np.abs(spec) ** 2) / (rate_hz * (taper ** 2).sum())
     # one-sided: every bin but DC and, for an even length, Nyquist holds its mirror's power
@@ -515,8 +545,23 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
     ConfigError
         ``min_speed_m_s`` not a finite number > 0 (0 or a negative floor gave an infinite
         feature for a standing window, ``True`` was a floor of 1 m/s, NaN a NaN feature).
+    DataFormatError
+        ``current`` or ``speed`` holds booleans (a mask was read as 1 A or 1 m/s) or does
+        not convert to real numbers (text, None: NumPy's bare TypeError or AttributeError).
+    ShapeError
+        ``current`` and ``speed`` not of one shape (NumPy broadcast one window's speed to
+        every window's current, or failed naming neither), or of no sample per window (a
+        NaN feature with a RuntimeWarning).
     """
     config_positive("per_speed", min_speed_m_s=min_speed_m_s)
+    if not (isinstance(current, np.ndarray) and isinstance(speed, np.ndarray)
+            and current.dtype.kind == "f" == speed.dtype.kind and current.shape == speed.shape
+            and current.ndim and current.shape[-1]):
+        # (the transformers' float windows skip the checks: this runs per decision)
+        current, speed = real_arrays("per_speed", current=current, speed=speed)
+        if current.shape != speed.shape or not current.ndim or not current.shape[-1]:
+            raise ShapeError(f"per_speed: current and speed must be (n_windows, n_samples >= "
+                             f"1) arrays of one shape, got {current.shape} and {speed.shape}")
     return current.mean(axis=-1) / np.maximum(np.abs(speed).mean(axis=-1), min_speed_m_s)
 
 

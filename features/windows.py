@@ -23,7 +23,7 @@ from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, ShapeError,
                             TimestampError, config_flags, config_numbers, config_positive,
-                            duplicated, first_items, listed)
+                            duplicated, first_items, listed, real_arrays)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, body_rates, get_vehicle
@@ -189,8 +189,23 @@ def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray
     ConfigError
         ``track_m`` not a finite number > 0 (0 made the yaw rate NaN or infinite, a negative
         track turned it the other way, NaN made it NaN, all without a word).
+    DataFormatError
+        An input holding booleans (a mask was read as speeds of 0 and 1 m/s) or not
+        converting to real numbers (text, None: NumPy's bare errors), naming it.
+    ShapeError
+        The four inputs not of one shape (NumPy broadcast a single sample to every row, or
+        failed naming none of them).
     """
     config_positive("derived_wheel_arrays", track_m=track_m)
+    inputs = (vel_l, vel_r, cur_l, cur_r)
+    if not all(isinstance(a, np.ndarray) and a.dtype.kind == "f" and a.shape == vel_l.shape
+               for a in inputs):
+        # (the service's float rows skip the checks: this runs per decision)
+        vel_l, vel_r, cur_l, cur_r = inputs = real_arrays(
+            "derived_wheel_arrays", vel_l=vel_l, vel_r=vel_r, cur_l=cur_l, cur_r=cur_r)
+        if any(a.shape != vel_l.shape for a in inputs):
+            raise ShapeError(f"derived_wheel_arrays: vel_l, vel_r, cur_l, cur_r must be "
+                             f"arrays of one shape, got {[a.shape for a in inputs]}")
     # the skid-steer kinematics' one home (seed 000 eq. 2), ideal drive chi = 1
     vel_mean, yaw_rate = body_rates(vel_l, vel_r, track_m, 1.0)
     return {"vel_mean": vel_mean, "vel_diff": vel_r - vel_l, "cur_sum": cur_l + cur_r,
@@ -600,7 +615,23 @@ def required_streams(channels: Iterable[str]) -> tuple[str, ...]:
         ``("imu",)``, ``("wheels",)`` or ``("imu", "wheels")``: ``imu`` when an IMU or EKF
         channel is selected, ``wheels`` when any channel is not an IMU channel (EKF channels
         need both streams).
+
+    Raises
+    ------
+    ConfigError
+        ``channels`` one text (its letters were read as channels: ``"wz"`` needed the
+        wheels) or not iterable, or holding a name that is not one of
+        :data:`KNOWN_CHANNELS` (a misspelt IMU channel counted as a wheel channel), naming
+        the first.
     """
+    if isinstance(channels, str) or not isinstance(channels, Iterable):
+        raise ConfigError(f"required_streams: channels must be a sequence of channel names, "
+                          f"got {channels!r}")
+    channels = list(channels)     # (an iterator is read once)
+    unknown = [c for c in channels if c not in KNOWN_CHANNELS]
+    if unknown:
+        raise ConfigError(f"required_streams: unknown channel {unknown[0]!r}; valid "
+                          f"channels {list(KNOWN_CHANNELS)}")
     chans = set(channels)
     need = []
     if chans & (set(IMU_CHANNELS) | set(EKF_CHANNELS)):
@@ -634,12 +665,36 @@ def check_uniform_clock(t_s: np.ndarray, rate_hz: float, where: str | None = Non
 
     Raises
     ------
+    ConfigError
+        ``rate_hz`` not a finite number > 0 (0 Hz was a "samples at 50 Hz, expects 0 Hz"
+        refusal of the data, ``True`` a 1 Hz clock).
+    ShapeError
+        ``t_s`` not 1-D (a 2-D array was read as its flattened steps), or ``rows`` not of
+        the length of ``t_s``.
     DataFormatError
-        The median step's rate is more than 1 % off ``rate_hz``, naming the column.
+        ``t_s`` does not convert to real numbers, or the median step's rate is more than
+        1 % off ``rate_hz``, naming the column.
     TimestampError
-        A step is longer than 1.5 periods, naming the column and the first row after it.
+        A time that is not finite or not after the previous one (a NaN time or a repeated
+        one passed as on the clock, times running backwards were "samples at -50 Hz"), or
+        a step longer than 1.5 periods, naming the column and the first offending row.
     """
-    dt = np.diff(np.asarray(t_s, dtype=float))
+    config_positive("check_uniform_clock", rate_hz=rate_hz)
+    t_s, = real_arrays("check_uniform_clock", t_s=t_s)
+    if t_s.ndim != 1 or (rows is not None and np.shape(rows) != t_s.shape):
+        raise ShapeError(f"check_uniform_clock: t_s must be 1-D and rows (when given) of "
+                         f"its length, got shapes {t_s.shape} and "
+                         f"{None if rows is None else np.shape(rows)}")
+    bad = times_out_of_order(t_s)
+    if bad.size:
+        row = int(bad[0])
+        why = (f"a non-finite time {float(t_s[row])!r}" if not np.isfinite(t_s[row]) else
+               f"time {float(t_s[row])!r} not after the previous row's "
+               f"{float(t_s[row - 1])!r}")
+        raise TimestampError(f"check_uniform_clock: {why}; aligned samples are on a uniform, "
+                             "strictly increasing clock (align with align_streams)", where,
+                             TIME, row if rows is None else int(rows[row]))
+    dt = np.diff(t_s)
     if dt.size and abs(1.0 / (np.median(dt) * rate_hz) - 1.0) > 0.01:
         raise DataFormatError(f"samples at {1 / np.median(dt):.3f} Hz; the model expects "
                               f"{rate_hz} Hz (align with align_streams)", where, TIME)
