@@ -23,7 +23,7 @@ from features.ekf_signals import EKF_CHANNELS, add_ekf_channels
 from terrain.estimation.skid_steer import SkidSteerSettings
 from terrain.errors import (ConfigError, DataFormatError, MissingColumnError, ShapeError,
                             TimestampError, config_flags, config_numbers, config_positive,
-                            duplicated, first_items, listed, real_arrays)
+                            duplicated, first_items, holds_booleans, listed, real_arrays)
 from terrain.io.align import DEFAULT_RATE_HZ, align_streams
 from terrain.run import IMU_CHANNELS, TIME, WHEEL_CHANNELS, Run, times_out_of_order
 from terrain.vehicles import HUSKY, HuskyParams, TrackedParams, body_rates, get_vehicle
@@ -212,6 +212,26 @@ def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray
             "cur_diff": cur_r - cur_l, "yaw_rate_wheels": yaw_rate}
 
 
+def _float_columns(frame: pd.DataFrame, columns: Sequence[str], owner: str) -> np.ndarray:
+    """``frame[columns]`` as a float array ``(n_rows, len(columns))``, refusing a column of
+    booleans (a mask was read as samples of 0 and 1) or one that does not convert to real
+    numbers (pandas' bare ValueError or TypeError named no column) with a
+    :class:`DataFormatError` naming it."""
+    for c in columns:
+        if holds_booleans(frame[c]):
+            raise DataFormatError(f"{owner}: column {c!r} holds booleans, not samples", None, c)
+    try:
+        return frame[list(columns)].to_numpy(dtype=float)
+    except (TypeError, ValueError):
+        for c in columns:
+            try:
+                frame[c].to_numpy(dtype=float)
+            except (TypeError, ValueError) as err:
+                raise DataFormatError(f"{owner}: column {c!r} does not hold real numbers "
+                                      f"({err})", None, c) from None
+        raise
+
+
 def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) -> pd.DataFrame:
     """Add :data:`DERIVED_WHEEL_CHANNELS` to an aligned frame that has wheel channels.
 
@@ -232,12 +252,15 @@ def add_derived_channels(frame: pd.DataFrame, track_m: float = HUSKY_TRACK_M) ->
     ------
     ConfigError
         ``track_m`` not a finite number > 0 (:func:`derived_wheel_arrays`).
+    DataFormatError
+        A wheel channel of booleans (a mask read as speeds of 0 and 1 m/s) or of values
+        that are not real numbers (pandas' bare error), naming the column.
     """
     if not set(WHEEL_CHANNELS) <= set(frame.columns):
         return frame
+    wheels = _float_columns(frame, WHEEL_CHANNELS, "add_derived_channels")
     out = frame.copy()
-    for name, values in derived_wheel_arrays(
-            *(frame[c].to_numpy(dtype=float) for c in WHEEL_CHANNELS), track_m).items():
+    for name, values in derived_wheel_arrays(*wheels.T, track_m).items():
         out[name] = values
     return out
 
@@ -755,9 +778,11 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
         the first offending row.
     DataFormatError
         The frame's median step is not ``config.rate_hz``'s period within 1 %
-        (:func:`check_uniform_clock`).
+        (:func:`check_uniform_clock`), or a selected channel (with ``steady_only``, a wheel
+        speed) holds booleans (a mask was cut into windows of 0 and 1) or values that are
+        not real numbers (pandas' bare error), naming the column.
     """
-    if isinstance(channels, str) or not len(channels):
+    if isinstance(channels, str) or not hasattr(channels, "__len__") or not len(channels):
         # no channel: every window was returned empty and counted as a gap too
         raise ConfigError(f"window_frame: channels must be a sequence of one or more channel "
                           f"names, got {channels!r}")
@@ -770,7 +795,7 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     if missing:     # (checked before a frame shorter than one window returns)
         raise ConfigError(f"steady_only needs the wheel speeds; the frame has no "
                           f"{missing} column(s)")
-    values = frame[list(channels)].to_numpy(dtype=float)
+    values = _float_columns(frame, channels, "window_frame")
     t = frame[TIME].to_numpy()
     # windows are cut by position: a frame out of time order gave windows whose start times
     # went back or repeated (or were NaN), without a word
@@ -816,7 +841,8 @@ def window_frame(frame: pd.DataFrame, channels: Sequence[str], config: WindowCon
     counts["dropped_gap"] = int((~keep & ~empty).sum())
     counts["empty_gap"] = int(empty.sum())
     if config.steady_only:
-        v = 0.5 * (frame["vel_l"].to_numpy() + frame["vel_r"].to_numpy())[idx]
+        speeds = _float_columns(frame, ("vel_l", "vel_r"), "window_frame")
+        v = 0.5 * (speeds[:, 0] + speeds[:, 1])[idx]
         # a wheel gap inside windows of finite selected channels (an IMU-only selection)
         # is a gap, not unsteady motion
         v_gap = keep & ~np.isfinite(v).all(axis=1)
