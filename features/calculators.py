@@ -335,7 +335,8 @@ def band_weights(n_samples: int, rate_hz: float,
         ``n_samples`` not an integer >= 1, ``rate_hz`` not a finite number > 0, a band that
         is not a ``(low, high)`` pair of real numbers (booleans and text refused), or a band
         that is not finite, has ``low >= high``, ends at or below 0 Hz or starts above the
-        Nyquist frequency (it would hold no content, only a borrowed nearest bin).
+        Nyquist frequency (it would hold no content, only a borrowed nearest bin), or
+        ``bands_hz`` not a sequence of bands (None, a number).
     """
     # (0 was a bare ZeroDivisionError, 2.5 or -4 an error inside NumPy, True one sample)
     config_integer("band_weights.n_samples", n_samples, 1)
@@ -344,6 +345,9 @@ def band_weights(n_samples: int, rate_hz: float,
         raise ConfigError(f"band_weights: rate_hz must be a finite number > 0 Hz, "
                           f"got {rate_hz!r}")
     nyquist = 0.5 * rate_hz
+    if not hasattr(bands_hz, "__iter__"):      # (None was a bare TypeError)
+        raise ConfigError(f"band_weights.bands_hz must be a sequence of (low, high) pairs in "
+                          f"Hz, got {bands_hz!r:.60}")
     bands_hz = tuple(_band_edges(k, band) for k, band in enumerate(bands_hz))
     for lo, hi in bands_hz:
         if not (np.isfinite(lo) and np.isfinite(hi)):

@@ -177,13 +177,13 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
         Raises
         ------
         ConfigError
-            ``channels`` or ``stats`` given as one text instead of a sequence of names,
-            an unknown statistic name, a ``min_speed_m_s`` or ``turn_floor_rad_s`` that is not a
-            finite number > 0, a ``rate_hz`` or ``band_width_hz`` :func:`linear_bands`
-            refuses, or a band of ``bands_hz`` that :func:`features.calculators.band_weights`
-            refuses (not finite, inverted, or outside 0 Hz to the Nyquist frequency), or a
-            feature name that occurs twice (a repeated channel or statistic, or two bands
-            whose names agree).
+            ``channels`` or ``stats`` given as one text (or None) instead of a sequence
+            of names, an unknown statistic name, a ``min_speed_m_s`` or
+            ``turn_floor_rad_s`` that is not a finite number > 0, a ``rate_hz`` or
+            ``band_width_hz`` :func:`linear_bands` refuses, or a band of ``bands_hz`` that
+            :func:`features.calculators.band_weights` refuses (not finite, inverted, or
+            outside 0 Hz to the Nyquist frequency), or a feature name that occurs twice (a
+            repeated channel or statistic, or two bands whose names agree).
         ValueError
             ``X`` not of real numbers (booleans, text, complex), of the wrong shape, of 0
             windows, of windows of fewer than 2 samples, or non-finite.
@@ -192,6 +192,10 @@ class WindowFeatures(TransformerMixin, BaseEstimator):
             if isinstance(value, str):      # ("ax" was read as the channels 'a' and 'x')
                 raise ConfigError(f"WindowFeatures.{field} must be a sequence of names, got "
                                   f"the text {value!r}; one name is written ({value!r},)")
+            if not hasattr(value, "__iter__") or not hasattr(value, "__len__"):
+                # (None was a bare TypeError of len() or of the iteration)
+                raise ConfigError(f"WindowFeatures.{field} must be a sequence of names, got "
+                                  f"{value!r}")
         unknown = [s for s in self.stats if s not in calculators.STATISTICS]
         if unknown:
             raise ConfigError(f"unknown statistics {unknown}; valid: "
