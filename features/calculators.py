@@ -20,6 +20,7 @@ from terrain.errors import (ConfigError, ShapeError, config_integer, config_numb
 from terrain.vehicles.icr import inverse_icr_factor
 
 _EPS = 1e-12
+_INF = float("inf")
 
 
 #: Statistic names in the order of their codes in :func:`_statistics_kernel`.
@@ -469,14 +470,15 @@ def band_log_power(x: np.ndarray, rate_hz: float,
         weights = band_weights(n, rate_hz, bands_hz)
     else:
         # (band_weights checks it otherwise; fast path for the transformers' float rate)
-        if not (isinstance(rate_hz, float) and 0.0 < rate_hz < np.inf):
+        if not (isinstance(rate_hz, float) and 0.0 < rate_hz < _INF):
             config_positive("band_log_power", rate_hz=rate_hz)
-        if np.ndim(weights) != 2 or np.shape(weights)[0] != n // 2 + 1:
+        shape = getattr(weights, "shape", ())
+        if len(shape) != 2 or shape[0] != n // 2 + 1:
             raise ShapeError(f"band_log_power: weights of shape {np.shape(weights)} for "
                              f"windows of {n} samples; band_weights gives "
                              f"({n // 2 + 1}, n_bands)")
     taper = hann_taper(n) if taper is None else taper
-    if np.shape(taper) != (n,):
+    if getattr(taper, "shape", None) != (n,):
         raise ShapeError(f"band_log_power: taper of shape {np.shape(taper)} for windows of "
                          f"{n} samples")
     spec = np.fft.rfft((x - x.mean(axis=-1, keepdims=True)) * taper, axis=-1)
@@ -557,7 +559,8 @@ def per_speed(current: np.ndarray, speed: np.ndarray, min_speed_m_s: float) -> n
         every window's current, or failed naming neither), or of no sample per window (a
         NaN feature with a RuntimeWarning).
     """
-    config_positive("per_speed", min_speed_m_s=min_speed_m_s)
+    if not (isinstance(min_speed_m_s, float) and 0.0 < min_speed_m_s < _INF):
+        config_positive("per_speed", min_speed_m_s=min_speed_m_s)
     if not (isinstance(current, np.ndarray) and isinstance(speed, np.ndarray)
             and current.dtype.kind == "f" == speed.dtype.kind and current.shape == speed.shape
             and current.ndim and current.shape[-1]):

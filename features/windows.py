@@ -196,11 +196,16 @@ def derived_wheel_arrays(vel_l: np.ndarray, vel_r: np.ndarray, cur_l: np.ndarray
         The four inputs not of one shape (NumPy broadcast a single sample to every row, or
         failed naming none of them).
     """
-    config_positive("derived_wheel_arrays", track_m=track_m)
-    inputs = (vel_l, vel_r, cur_l, cur_r)
-    if not all(isinstance(a, np.ndarray) and a.dtype.kind == "f" and a.shape == vel_l.shape
-               for a in inputs):
-        # (the service's float rows skip the checks: this runs per decision)
+    # (the service's float track and rows skip the full checks: this runs per decision)
+    if not (isinstance(track_m, float) and 0.0 < track_m < math.inf):
+        config_positive("derived_wheel_arrays", track_m=track_m)
+    try:
+        checked = (vel_l.dtype.kind == vel_r.dtype.kind == cur_l.dtype.kind
+                   == cur_r.dtype.kind == "f"
+                   and vel_l.shape == vel_r.shape == cur_l.shape == cur_r.shape)
+    except AttributeError:      # (lists, None)
+        checked = False
+    if not checked:
         vel_l, vel_r, cur_l, cur_r = inputs = real_arrays(
             "derived_wheel_arrays", vel_l=vel_l, vel_r=vel_r, cur_l=cur_l, cur_r=cur_r)
         if any(a.shape != vel_l.shape for a in inputs):
