@@ -127,7 +127,7 @@ def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     Raises
     ------
     ConfigError
-        An unknown statistic name, or ``names`` given as one text.
+        An unknown statistic name, or ``names`` given as one text or not a sequence (None).
     DataFormatError
         ``x`` holds booleans (a mask) or does not convert to real numbers (text).
     ShapeError
@@ -136,6 +136,8 @@ def statistics(x: np.ndarray, names: Sequence[str]) -> np.ndarray:
     if isinstance(names, str):    # ("mean" was read as the unknown names 'm', 'e', 'a', 'n')
         raise ConfigError(f"statistics: names must be a sequence of names, got the text "
                           f"{names!r}; one name is written ({names!r},)")
+    if not hasattr(names, "__iter__"):      # (None was a bare TypeError)
+        raise ConfigError(f"statistics: names must be a sequence of names, got {names!r}")
     unknown = [s for s in names if s not in _STATISTIC_NAMES]
     if unknown:
         raise ConfigError(f"unknown statistics {unknown}; valid: {list(_STATISTIC_NAMES)}")

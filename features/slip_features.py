@@ -524,7 +524,21 @@ def terrain_columns(columns: Sequence[str]) -> list[str]:
     Returns
     -------
     list of str
+        The columns starting ``p__`` or ``phys_``, in their order.
+
+    Raises
+    ------
+    ConfigError
+        ``columns`` one text (its letters were read as columns: ``"p__ICE"`` had none) or
+        not a sequence, or a column that is not text (a bare AttributeError).
     """
+    if isinstance(columns, str) or not hasattr(columns, "__iter__"):
+        raise ConfigError(f"terrain_columns: columns must be a sequence of column names, got "
+                          f"{columns!r:.60}")
+    columns = list(columns)
+    odd = [c for c in columns if not isinstance(c, str)]
+    if odd:
+        raise ConfigError(f"terrain_columns: column names are text, got {odd[0]!r}")
     return [c for c in columns if c.startswith(("p__", "phys_"))]
 
 
