@@ -199,7 +199,9 @@ def holds_booleans(x) -> bool:
     is 1: a mask passed by mistake became commands of 1 m/s or a unit covariance).
 
     The one test behind the refusals of the traction step, the feed-forward, the EKF's inputs
-    and the simulator's commands (each raises its own typed error).
+    and the simulator's commands (each raises its own typed error). A Python float and a
+    NumPy array of numbers pass on one type test (the per-step callers); a list is looked
+    into entry by entry only when NumPy converted it to numbers or objects.
 
     Parameters
     ----------
@@ -210,18 +212,63 @@ def holds_booleans(x) -> bool:
     -------
     bool
         True for a Python or NumPy boolean, an array of boolean dtype (pandas' nullable
-        ``boolean`` included), or a list/tuple that converts to one; False otherwise (a
-        ragged list included: its conversion names it).
+        ``boolean`` included), or a list/tuple that converts to booleans or holds one among
+        numbers (``[0.5, True]``, which NumPy converted to ``[0.5, 1.0]``; nested lists and
+        0-d boolean arrays included); False otherwise (a ragged list included: its
+        conversion names it). An object array or column is judged by its dtype only: the
+        readers' and the features' own rule (:func:`first_non_number_cell`) names the row
+        of a boolean in it.
     """
+    kind_x = type(x)
+    if kind_x is float or kind_x is np.float64:
+        return False
+    if kind_x is np.ndarray:
+        return x.dtype.kind == "b"
     dtype = getattr(x, "dtype", None)
     if dtype is not None:   # (pandas' nullable ``boolean`` is kind "b" but not == bool)
-        return dtype == bool or getattr(dtype, "kind", None) == "b"
+        kind = getattr(dtype, "kind", None)
+        return kind == "b" or (kind is None and dtype == bool)
     if isinstance(x, (list, tuple)):
-        try:
-            return np.asarray(x).dtype == bool
-        except (TypeError, ValueError):
-            return False
+        return first_boolean(x) is not None
     return isinstance(x, bool)
+
+
+def first_boolean(x) -> tuple[int, object] | None:
+    """The first boolean among the entries of a list, tuple or object array, as
+    ``(index, entry)``, or None (:func:`holds_booleans`' look into a list).
+
+    Parameters
+    ----------
+    x : list, tuple or array_like
+        Values, possibly nested (equal lengths).
+
+    Returns
+    -------
+    tuple or None
+        The 0-based index in the flattened (row-major) entries and the entry itself (a Python
+        or NumPy boolean, or a 0-d boolean array); ``(0, x)`` where the whole of ``x``
+        converts to a boolean array; None where no entry is a boolean, or where ``x`` does
+        not convert to an array (a ragged list: its conversion names it).
+    """
+    try:
+        array = x if isinstance(x, np.ndarray) else np.asarray(x)
+        if array.dtype.kind == "b":
+            return (0, x)
+        if array.dtype.kind not in "iufcO":     # (text: the booleans became text)
+            return None
+        if array.dtype.kind == "O":
+            cells = array.ravel()
+        elif array.ndim == 1 and not isinstance(x, np.ndarray):
+            cells = x                           # (a flat list: its entries as they are)
+        else:
+            cells = np.asarray(x, dtype=object).ravel()
+    except (TypeError, ValueError):
+        return None
+    for k, cell in enumerate(cells):
+        if type(cell) is not float and (isinstance(cell, (bool, np.bool_))
+                                        or getattr(cell, "dtype", None) == bool):
+            return (k, cell)
+    return None
 
 
 def refuse_unreal(owner: str, optional: tuple = (), **inputs) -> None:
@@ -275,12 +322,20 @@ def refuse_booleans(error: type[TerrainError], owner: str | None = None, **value
     Raises
     ------
     TerrainError
-        ``error``: "[<owner>: ]<name> must hold numbers, got booleans".
+        ``error``: "[<owner>: ]<name> must hold numbers, got booleans", followed, for a
+        boolean among numbers (``[0.5, True]``), by "(<type> <entry> at index <k> is not a
+        real number)", the flattened index (:func:`first_boolean`).
     """
     for name, value in values.items():
         if holds_booleans(value):
             where = f"{owner}: " if owner else ""
-            raise error(f"{where}{name} must hold numbers, got booleans")
+            found = (first_boolean(value) if isinstance(value, (list, tuple, np.ndarray))
+                     else None)
+            entry = ""
+            if found is not None and found[1] is not value:     # (one among numbers)
+                k, cell = found
+                entry = f" ({type(cell).__name__} {cell!r:.30} at index {k} is not a real number)"
+            raise error(f"{where}{name} must hold numbers, got booleans{entry}")
 
 
 def real_arrays(owner: str, boolean_error: type[TerrainError] | None = None,
