@@ -408,37 +408,51 @@ def refuse_missing(owner: str, name: str, values, what: str, why: str = "") -> N
                                   + (f": {why}" if why else ""))
 
 
-def refuse_infinite(owner: str, X, names=None, why: str = "") -> None:
-    """Raise :class:`NonFiniteInputError` where the feature matrix ``X`` holds an infinite
-    value, naming the count and the first one's column and row (NaN passes: a missing
-    feature, which the tree models send down a learned branch); the shared refusal of the
-    tree models (scikit-learn's trees took inf as the largest value, without a word).
+def refuse_infinite(owner: str, X, names=None, why: str = "", name: str = "X",
+                    flat: bool = False) -> None:
+    """Raise :class:`NonFiniteInputError` where ``X`` holds an infinite value, naming the
+    count and the first one (NaN passes: a missing value, which the tree models send down
+    a learned branch and the physical relations return as a NaN); the shared refusal of the
+    tree models (scikit-learn's trees took inf as the largest value, without a word) and of
+    the relations whose argument may be missing but not infinite
+    (:func:`terrain.terramechanics.resistance.grade_resistance_n`).
 
     Parameters
     ----------
     owner : str
         The function or object refusing, put first in the message.
-    X : numpy.ndarray
-        ``(n_rows, n_features)`` real features.
+    X : array_like
+        Real values of any shape: a ``(n_rows, n_features)`` feature matrix is named by
+        column and row, any other shape (a vector, a scalar) by flat index.
     names : sequence of str, optional
-        ``(n_features,)`` the columns' names; None: a column is named by its 0-based
-        position.
+        ``(n_features,)`` the columns' names of a 2-D ``X``; None: a column is named by its
+        0-based position.
     why : str
         Appended after a colon where not empty.
+    name : str
+        The argument's name (``"X"``, a feature matrix, unless told).
+    flat : bool
+        Name the first infinite value by its flat index whatever the shape (an argument that
+        is no feature matrix, e.g. a 2-D array of pitch angles).
 
     Raises
     ------
     NonFiniteInputError
-        "<owner>: X holds <count> infinite value(s), the first in column <name>, row <i>
-        (0-based)[: <why>]".
+        "<owner>: <name> holds <count> infinite value(s), the first in column <column>, row
+        <i> (0-based)[: <why>]" for a 2-D ``X`` (unless ``flat``); "... the first at flat
+        index <i>[: <why>]" for any other shape (a 1-D or 0-D ``X`` was NumPy's bare
+        ValueError).
     """
     bad = np.isinf(X)
     if bad.any():
-        rows, cols = np.nonzero(bad)        # (row-major: the first row first)
-        column = repr(str(names[cols[0]])) if names is not None else str(cols[0])
-        raise NonFiniteInputError(f"{owner}: X holds {int(bad.sum())} infinite value(s), the "
-                                  f"first in column {column}, row {rows[0]} (0-based)"
-                                  + (f": {why}" if why else ""))
+        if bad.ndim == 2 and not flat:
+            rows, cols = np.nonzero(bad)        # (row-major: the first row first)
+            column = repr(str(names[cols[0]])) if names is not None else str(cols[0])
+            where = f"in column {column}, row {rows[0]} (0-based)"
+        else:
+            where = f"at flat index {int(np.flatnonzero(bad)[0])}"
+        raise NonFiniteInputError(f"{owner}: {name} holds {int(bad.sum())} infinite value(s), "
+                                  f"the first {where}" + (f": {why}" if why else ""))
 
 
 def _type_family(kind: type) -> object:

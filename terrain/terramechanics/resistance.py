@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from terrain.errors import ConfigError, NonFiniteInputError, config_numbers, config_positive
+from terrain.errors import ConfigError, config_numbers, config_positive, refuse_infinite
 from terrain.terramechanics.traction import check_numeric_pair, numeric_array, traction_peak
 
 G_M_S2 = 9.80665
@@ -105,15 +105,13 @@ def grade_resistance_n(mass_kg: float, pitch_rad: np.ndarray | float) -> np.ndar
         grade of a 1 rad slope, text NumPy's bare ValueError;
         :func:`~terrain.terramechanics.traction.numeric_array`).
     NonFiniteInputError
-        An infinite ``pitch_rad`` (``sin`` of it was a NaN force and a RuntimeWarning).
+        An infinite ``pitch_rad`` (``sin`` of it was a NaN force and a RuntimeWarning),
+        named with its flat index (:func:`terrain.errors.refuse_infinite`).
     """
     config_numbers("grade_resistance_n", mass_kg=mass_kg)
     config_positive("grade_resistance_n", mass_kg=mass_kg)
     pitch = numeric_array("grade_resistance_n", "pitch_rad", pitch_rad)
-    if np.isinf(pitch).any():
-        raise NonFiniteInputError(f"grade_resistance_n: pitch_rad holds "
-                                  f"{int(np.isinf(pitch).sum())} infinite value(s), the first "
-                                  f"at flat index {int(np.flatnonzero(np.isinf(pitch))[0])}")
+    refuse_infinite("grade_resistance_n", pitch, name="pitch_rad", flat=True)
     return mass_kg * G_M_S2 * np.sin(pitch)
 
 
