@@ -12,15 +12,16 @@ thesis could not do (ch. 4.2).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 from scipy import stats
 
-from terrain.errors import (ConfigError, CovarianceError, EstimationError, NonFiniteInputError,
-                            ShapeError, config_flags, config_numbers, config_positive,
-                            first_items, is_integer, refuse_booleans)
-from terrain.estimation.ekf import real_array
+from terrain.errors import (ConfigError, CovarianceError, DataWarning, EstimationError,
+                            NonFiniteInputError, ShapeError, config_flags, config_numbers,
+                            config_positive, first_items, is_integer, refuse_booleans)
+from terrain.estimation.ekf import SYMMETRY_RTOL, real_array
 from terrain.estimation.model import wrap_angle
 
 
@@ -43,7 +44,10 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     ShapeError
         Shapes that do not match.
     CovarianceError
-        A covariance that is singular (e.g. a state with zero variance), or one that is not
+        A covariance that is not symmetric (``|P - P^T|`` above ``SYMMETRY_RTOL`` times its
+        largest entry, as :func:`~terrain.estimation.ekf.as_covariance`: the solve used the
+        matrix as given, so ``[[1, 0.5], [0, 1]]`` gave a NEES of a matrix that is no
+        covariance), one that is singular (e.g. a state with zero variance), or one that is not
         positive definite where it gives a negative NEES (``-np.eye(n)``: NEES ``-|e|^2``,
         returned before); the message names the steps.
     NonFiniteInputError
@@ -63,6 +67,14 @@ def nees(errors: np.ndarray, covariances: np.ndarray) -> np.ndarray:
     bad = np.flatnonzero(~np.isfinite(P.reshape(P.shape[0], -1)).all(axis=1))
     if bad.size:
         raise NonFiniteInputError(f"NEES: the covariance is not finite at "
+                                  f"{first_items(bad.tolist(), word='step')}")
+    if P.size:
+        scale = np.maximum(np.abs(P).max(axis=(1, 2)), 1e-300)
+        asym = np.abs(P - P.transpose(0, 2, 1)).max(axis=(1, 2))
+        bad = np.flatnonzero(asym > SYMMETRY_RTOL * scale)
+        if bad.size:
+            raise CovarianceError(f"NEES: the covariance is not symmetric (max |P - P^T| = "
+                                  f"{asym[bad[0]]:.3g}) at "
                                   f"{first_items(bad.tolist(), word='step')}")
     try:
         sol = np.linalg.solve(P, e[..., None])[..., 0]
@@ -142,7 +154,17 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     Returns
     -------
     float
-        In the unit of ``errors``.
+        In the unit of ``errors``; NaN, with a :class:`~terrain.errors.DataWarning`, where
+        there is no error to average (``errors`` empty, or every one NaN with
+        ``ignore_nan``): the RMSE of nothing is no number, and the validation tables that
+        call this per subset (e.g. the transient steps of a run, which one run may lack)
+        keep their other cells, where an error would lose the whole table (NumPy's own
+        "Mean of empty slice" RuntimeWarning said nothing of the errors).
+
+    Warns
+    -----
+    DataWarning
+        No error to average.
 
     Raises
     ------
@@ -157,6 +179,10 @@ def rmse(errors: np.ndarray, *, ignore_nan: bool = False) -> float:
     if errors is None:      # (it was an RMSE of NaN)
         raise EstimationError("rmse: errors must hold numbers, got None")
     sq = real_array(errors, "rmse: errors") ** 2
+    if not sq.size or (ignore_nan and np.isnan(sq).all()):
+        what = "no errors" if not sq.size else f"every one of the {sq.size} errors NaN"
+        warnings.warn(f"rmse: {what}, nothing to average: NaN", DataWarning, stacklevel=2)
+        return float("nan")
     return float(np.sqrt(np.nanmean(sq) if ignore_nan else np.mean(sq)))
 
 

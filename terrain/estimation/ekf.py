@@ -625,6 +625,8 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, h: Callable[..., np.ndar
     Raises
     ------
     ShapeError, NonFiniteInputError, CovarianceError
+        (``check`` True) among them ``h(x)`` or ``residual(z, h(x))`` not of the length of
+        ``z``.
     """
     if check:
         x = as_vector(x, "x")
@@ -634,6 +636,8 @@ def update(x: np.ndarray, P: np.ndarray, z: np.ndarray, h: Callable[..., np.ndar
     if check:
         hx = as_vector(hx, "h(x)", z.size)
     y = residual(z, hx) if residual is not None else z - hx
+    if check and residual is not None:     # (one of another length was blamed on H)
+        y = as_vector(y, "residual(z, h(x))", z.size)
     return correct(x, P, y, Hm, R, gate=gate, groups=groups, check=check)
 
 
@@ -701,15 +705,44 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
     Raises
     ------
     ShapeError
-        Shapes that do not match, or ``lower > upper`` somewhere.
+        Shapes that do not match (``x`` not one-dimensional: a 2-D ``x`` was NumPy's "truth
+        value is ambiguous"), or ``lower > upper`` somewhere.
     NonFiniteInputError
         A NaN bound (named ``lower`` or ``upper``, with its states): every comparison with
-        NaN is false, so it would be no bound without a word.
+        NaN is false, so it would be no bound without a word. A NaN or infinite ``x`` (its
+        states named; a NaN came back as NaN, held "at a bound"), or a NaN or infinite ``P``
+        where the projection uses it (a bare LinAlgError, or a NaN estimate, before).
+    CovarianceError
+        A held block of ``P`` (``movable``) that NumPy's least squares cannot solve.
+    EstimationError
+        ``x``, ``P``, ``lower`` or ``upper`` not real numbers (None, text, booleans: a bare
+        IndexError or ValueError before), or ``movable`` not a boolean mask (``[0.5, 0]``
+        was read as ``[True, False]``, state indices ``[0, 2]`` as a mask).
+
+    Notes
+    -----
+    It runs at every step of the filters that bound a speed, so the checks of a float
+    array are one type test each, and a NaN or inf is found by one dot product of the
+    result (0.5 us, against 45-80 us for a call); other inputs are converted and judged
+    once per call.
     """
-    x = np.asarray(x, dtype=float)
+    if type(x) is not np.ndarray or x.dtype.kind != "f" or x.ndim != 1:
+        x = as_vector(x, "x")              # (None, text, booleans, 2-D: named)
+    else:
+        x = np.asarray(x, dtype=float)     # (a NaN or inf shows in the result: judged there)
     n = x.shape[0]
-    lower = np.broadcast_to(np.asarray(lower, dtype=float), (n,))
-    upper = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    if type(P) is not np.ndarray or P.dtype.kind != "f":
+        P = real_array(P, "P")
+    if type(lower) is not np.ndarray or lower.dtype.kind != "f":
+        lower = real_array(lower, "lower")
+    if type(upper) is not np.ndarray or upper.dtype.kind != "f":
+        upper = real_array(upper, "upper")
+    try:
+        lower = np.broadcast_to(np.asarray(lower, dtype=float), (n,))
+        upper = np.broadcast_to(np.asarray(upper, dtype=float), (n,))
+    except ValueError:      # (NumPy's bare "operands could not be broadcast")
+        raise ShapeError(f"lower and upper must have shape ({n},) or be scalars, got "
+                         f"{np.shape(lower)} and {np.shape(upper)}") from None
     if np.shape(P) != (n, n):
         raise ShapeError(f"P must have shape ({n}, {n}) for a state of {n}; got {np.shape(P)}")
     for name, b in (("lower", lower), ("upper", upper)):
@@ -721,7 +754,12 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
         raise ShapeError(f"lower bound above upper bound at state(s) "
                          f"{np.flatnonzero(lower > upper).tolist()}")
     if movable is not None:
-        movable = np.asarray(movable, dtype=bool)
+        if type(movable) is not np.ndarray or movable.dtype.kind != "b":
+            mask = np.asarray(movable) if not isinstance(movable, (str, bytes)) else None
+            if mask is None or mask.dtype.kind != "b":     # (0.5 was True, 0 False)
+                raise EstimationError(f"movable must be a boolean mask of the states (True: "
+                                      f"may move), got {movable!r:.60}")
+            movable = mask
         if movable.shape != (n,):
             raise ShapeError(f"movable must have shape ({n},); got {movable.shape}")
         held = np.flatnonzero(~movable)
@@ -731,42 +769,68 @@ def project_to_bounds(x: np.ndarray, P: np.ndarray, lower: np.ndarray, upper: np
             mov = np.flatnonzero(movable)
             P = np.asarray(P, dtype=float)
             cond = np.zeros((n, n))
-            cond[np.ix_(mov, mov)] = (P[np.ix_(mov, mov)] - P[np.ix_(mov, held)] @ np.linalg.lstsq(
-                P[np.ix_(held, held)], P[np.ix_(held, mov)], rcond=None)[0])
+            try:
+                cond[np.ix_(mov, mov)] = (P[np.ix_(mov, mov)] - P[np.ix_(mov, held)]
+                                          @ np.linalg.lstsq(P[np.ix_(held, held)],
+                                                            P[np.ix_(held, mov)],
+                                                            rcond=None)[0])
+            except np.linalg.LinAlgError as exc:   # (NaN P: a bare "SVD did not converge")
+                _refuse_non_finite(x, P)
+                raise CovarianceError(f"P: the covariance of the held states cannot be "
+                                      f"solved ({exc})") from None
             P = cond
     xc = np.clip(x, lower, upper)             # feasible start, on the bounds x violates
     active = xc != x
     bound = xc.copy()
-    for _ in range(8 * n + 8):
-        idx = np.flatnonzero(active)
-        Paa = P[np.ix_(idx, idx)]
-        if idx.size and ((Paa.diagonal() <= 0).any() or np.linalg.cond(Paa) > 1e12):
-            break                             # no metric to project in: the feasible point
-        # the nearest point with the working set held at its bounds (x_c = x - P_:a lam)
-        lam = np.linalg.solve(Paa, x[idx] - bound[idx]) if idx.size else np.zeros(0)
-        target = x - P[:, idx] @ lam
-        target[idx] = bound[idx]              # exact, free of round-off
-        step = target - xc
-        # the first bound of a free state met on the way there stops the step and joins
-        with np.errstate(divide="ignore", invalid="ignore"):
-            room = np.where(step > 0, (upper - xc) / step, (lower - xc) / step)
-        room[active | (step == 0)] = np.inf
-        j = int(np.argmin(room))
-        if room[j] < 1.0:
-            xc = np.clip(xc + max(room[j], 0.0) * step, lower, upper)
-            bound[j] = xc[j] = upper[j] if step[j] > 0 else lower[j]
-            active[j] = True
-            continue
-        xc = target
-        # multiplier of each bound held: >= 0 at an upper bound, <= 0 at a lower one; one of
-        # the wrong sign holds its state against a bound it would leave: released (the one
-        # of largest |lam|), the rest redone from here
-        wrong = np.where(bound[idx] == upper[idx], -lam, lam)
-        wrong[lower[idx] == upper[idx]] = -np.inf     # an equality is never released
-        if not idx.size or wrong.max() <= 0.0:
-            return xc, active
-        active[idx[int(np.argmax(wrong))]] = False
-    return np.clip(xc, lower, upper), active
+    try:
+        for _ in range(8 * n + 8):
+            idx = np.flatnonzero(active)
+            Paa = P[np.ix_(idx, idx)]
+            if idx.size and ((Paa.diagonal() <= 0).any() or np.linalg.cond(Paa) > 1e12):
+                xc = np.clip(xc, lower, upper)    # no metric to project in: the feasible point
+                break
+            # the nearest point with the working set held at its bounds (x_c = x - P_:a lam)
+            lam = np.linalg.solve(Paa, x[idx] - bound[idx]) if idx.size else np.zeros(0)
+            target = x - P[:, idx] @ lam
+            target[idx] = bound[idx]              # exact, free of round-off
+            step = target - xc
+            # the first bound of a free state met on the way there stops the step and joins
+            with np.errstate(divide="ignore", invalid="ignore"):
+                room = np.where(step > 0, (upper - xc) / step, (lower - xc) / step)
+            room[active | (step == 0)] = np.inf
+            j = int(np.argmin(room))
+            if room[j] < 1.0:
+                xc = np.clip(xc + max(room[j], 0.0) * step, lower, upper)
+                bound[j] = xc[j] = upper[j] if step[j] > 0 else lower[j]
+                active[j] = True
+                continue
+            xc = target
+            # multiplier of each bound held: >= 0 at an upper bound, <= 0 at a lower one; one
+            # of the wrong sign holds its state against a bound it would leave: released (the
+            # one of largest |lam|), the rest redone from here
+            wrong = np.where(bound[idx] == upper[idx], -lam, lam)
+            wrong[lower[idx] == upper[idx]] = -np.inf     # an equality is never released
+            if not idx.size or wrong.max() <= 0.0:
+                break                             # the minimum
+            active[idx[int(np.argmax(wrong))]] = False
+        else:
+            xc = np.clip(xc, lower, upper)        # rounds spent: the feasible point reached
+    except np.linalg.LinAlgError:
+        _refuse_non_finite(x, P)
+        raise
+    # one scalar test: a NaN or inf x, or a NaN in the rows of P used, gives a NaN here
+    if not math.isfinite(xc.dot(xc)):
+        _refuse_non_finite(x, P)
+    return xc, active
+
+
+def _refuse_non_finite(x: np.ndarray, P: np.ndarray) -> None:
+    """Raise :class:`NonFiniteInputError` naming the states of ``x``, or ``P``, that hold NaN
+    or inf (the projection's slow path, once NumPy failed or gave a non-finite estimate;
+    nothing where both are finite, the estimate only overflowing in the test's square)."""
+    as_vector(x, "x")
+    if not np.isfinite(P).all():
+        raise NonFiniteInputError("P has non-finite entries: no metric to project in")
 
 
 class ExtendedKalmanFilter:
@@ -912,7 +976,7 @@ class ExtendedKalmanFilter:
         ------
         ShapeError
             ``z`` of the wrong length, ``rows`` not distinct integers in ``0 .. m-1``, or
-            ``h`` / ``H`` returned an array of the wrong shape.
+            ``h`` / ``H`` / ``residual`` returned an array of the wrong shape.
         NonFiniteInputError, CovarianceError
         EstimationError
             Booleans, text or complex numbers given for ``z`` or ``R``.
@@ -942,12 +1006,20 @@ class ExtendedKalmanFilter:
             raise ShapeError(f"H(x) must have shape ({self._m}, {n}), got {Hm.shape}")
         if self._residual is None:
             y = z - hx[idx]
-        elif rows is None:
-            y = self._residual(z, hx)
-        else:  # the residual sees full vectors (it may wrap angle rows by position)
-            z_full = hx.copy()
-            z_full[idx] = z
-            y = self._residual(z_full, hx)[idx]
+        else:
+            if rows is None:
+                y = self._residual(z, hx)
+            else:  # the residual sees full vectors (it may wrap angle rows by position)
+                z_full = hx.copy()
+                z_full[idx] = z
+                y = self._residual(z_full, hx)
+            # (one of another length was blamed on H, "H must have shape (2, 2)", or was
+            # NumPy's bare concatenation error)
+            if np.shape(y) != (self._m,):
+                raise ShapeError(f"residual(z, h(x)) must have shape ({self._m},), got "
+                                 f"{np.shape(y)}")
+            if rows is not None:
+                y = np.asarray(y)[idx]
         if R is None:
             R = (self._R if rows is None else self._R[idx] if self._R.ndim == 1
                  else self._R[np.ix_(idx, idx)])

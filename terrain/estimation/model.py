@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Callable, ClassVar, Mapping
 
 import numpy as np
 
-from terrain.errors import ConfigError
-from terrain.estimation.ekf import check_time_step
+from terrain.errors import ConfigError, config_positive
+from terrain.estimation.ekf import as_vector, check_time_step
 from terrain.estimation.equations.evaluate import NO_INPUT, observation_pair, transition_pair
 from terrain.vehicles.common import wrap_angle
 
@@ -418,20 +418,35 @@ def finite_difference_jacobian(fun, x: np.ndarray, eps: float = 1e-6) -> np.ndar
     fun : callable ``fun(x) -> (m,)``
         Function to differentiate.
     x : ndarray, shape (n,)
-        Point of evaluation.
+        Point of evaluation, finite.
     eps : float
-        Step, relative to ``max(1, |x_j|)``.
+        Step, relative to ``max(1, |x_j|)``: a finite number > 0, large enough to move
+        every ``x_j``.
 
     Returns
     -------
     ndarray, shape (m, n)
+
+    Raises
+    ------
+    ShapeError, NonFiniteInputError, EstimationError
+        ``x`` not one-dimensional, not finite, or not real numbers (None, text, booleans),
+        named (:func:`terrain.estimation.ekf.as_vector`; None was a bare IndexError, a 2-D
+        ``x`` NumPy's "truth value is ambiguous").
+    ConfigError
+        ``eps`` not a finite number > 0 (0 gave a Jacobian of NaN), or so small that
+        ``x_j + h`` rounds to ``x_j - h`` (a Jacobian of zeros).
     """
-    x = np.asarray(x, dtype=float)
+    x = as_vector(x, "x")
+    config_positive("finite_difference_jacobian", eps=eps)
     cols = []
     for j in range(x.size):
         h = eps * max(1.0, abs(x[j]))
         xp, xm = x.copy(), x.copy()
         xp[j] += h
         xm[j] -= h
+        if xp[j] == xm[j]:
+            raise ConfigError(f"finite_difference_jacobian.eps = {eps!r} is too small to move "
+                              f"x[{j}] = {x[j]!r}: give a larger step")
         cols.append((np.asarray(fun(xp)) - np.asarray(fun(xm))) / (2.0 * h))
     return np.column_stack(cols)
