@@ -6,25 +6,35 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numba.extending import register_jitable
+from numba.extending import overload, register_jitable
 
 from terrain.errors import (ConfigError, EstimationError, config_flags, config_integer,
                             config_positive, duplicated, first_non_number_cell,
-                            refuse_booleans)
+                            real_number, refuse_booleans)
 
 
 @register_jitable
+def _wrapped(angle_rad):
+    """``angle_rad`` wrapped to [-pi, pi) (:func:`wrap_angle`'s one formula, which compiles
+    inside numba code too)."""
+    wrapped = (angle_rad + np.pi) % (2.0 * np.pi) - np.pi
+    return wrapped - 2.0 * np.pi * (wrapped >= np.pi)
+
+
 def wrap_angle(angle_rad):
     """Wrap angles to [-pi, pi), the heading and steering-angle convention of the project.
 
     The one definition: the EKF's angle innovations (python and compiled loops), the
     adaptive observer's heading error, the swerve inverse kinematics and the simulator's
-    steering actuator call it. Compiles inside numba code (``register_jitable``).
+    steering actuator call it. Compiles inside numba code (an ``overload`` of the same
+    formula, without the checks of the arguments, which numba types).
 
     Parameters
     ----------
     angle_rad : float or ndarray, any shape
-        Angles, rad. NaN stays NaN; an infinite angle gives NaN.
+        Angles, rad: a real number, an array (or pandas object) of numbers, or a list of
+        numbers (converted to an array). NaN stays NaN; an infinite angle gives NaN. A
+        Python float and a float array pass on one type test (it runs at every step).
 
     Returns
     -------
@@ -32,9 +42,36 @@ def wrap_angle(angle_rad):
         Same shape, rad, in [-pi, pi): ``a - 2 pi k`` for the integer k that puts it there.
         The floating-point remainder of a sum just below 0 rounds up to 2 pi (``-1e-17``
         from -pi gives +pi); that case is moved to -pi, so +pi is never returned.
+
+    Raises
+    ------
+    EstimationError
+        ``angle_rad`` a boolean or holding booleans (``True`` was the angle 1.0 rad), None,
+        text, or anything else that is not real numbers (:func:`float_arrays`; None and text
+        were a bare TypeError), naming ``angle_rad``.
     """
-    wrapped = (angle_rad + np.pi) % (2.0 * np.pi) - np.pi
-    return wrapped - 2.0 * np.pi * (wrapped >= np.pi)
+    kind = type(angle_rad)
+    if not (kind is float or kind is np.float64
+            or (kind is np.ndarray and angle_rad.dtype.kind == "f")):
+        angle_rad = _real_angles(angle_rad)
+    return _wrapped(angle_rad)
+
+
+def _real_angles(angle_rad):
+    """``angle_rad`` as :func:`wrap_angle` computes with it: an array or pandas object of
+    (non-boolean) numbers or a real number as it is, anything else through
+    :func:`float_arrays` (which refuses booleans, None and text, naming ``angle_rad``)."""
+    kind = getattr(getattr(angle_rad, "dtype", None), "kind", None)
+    if kind is not None and kind in "iuf" or real_number(angle_rad):
+        return angle_rad
+    angles, = float_arrays("wrap_angle", angle_rad=angle_rad)
+    return angles
+
+
+@overload(wrap_angle)
+def _wrap_angle_compiled(angle_rad):
+    """:func:`wrap_angle` inside numba code (its arguments are typed by numba)."""
+    return lambda angle_rad: _wrapped(angle_rad)
 
 
 def float_arrays(owner: str, **arrays) -> list[np.ndarray]:
