@@ -57,13 +57,14 @@ from typing import Mapping
 import numpy as np
 from scipy.optimize import brentq
 
-from terrain.errors import (ConfigError, ShapeError, config_flags, config_integer,
-                            config_numbers, config_positive, refuse_booleans)
+from terrain.errors import (ConfigError, DataFormatError, ShapeError, config_flags,
+                            config_integer, config_numbers, config_positive, refuse_booleans)
 from terrain.terramechanics.resistance import (bekker_sinkage_m, check_lengths,
                                                check_slide_speed, compaction_resistance_n)
 from terrain.terramechanics.traction import (CurveCoefficients, JanosiCurve, TractionCurve,
                                              curve_resistance_terms,
-                                             curve_traction_terms, patch_mobilisation)
+                                             curve_traction_terms, numeric_array,
+                                             patch_mobilisation)
 
 _WONG_T23 = ("Wong, Theory of Ground Vehicles, 4th ed. 2008, Table 2.3 (Bekker's values)")
 
@@ -467,7 +468,11 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
     Parameters
     ----------
     sinkage_m : float or ndarray, shape (c,)
-        Depth of the wall z, m.
+        Depth of the wall z, m. A negative one (a wheel above the surface) is taken as 0,
+        no wall and no force, the limit of ``R_b`` as ``z -> 0``, as
+        :func:`~terrain.terramechanics.resistance.compaction_resistance_n` clips its rut
+        depth (it gave a negative force, ``0.67 c z K_pc`` < 0, that pulled the wheel into
+        its slide); NaN (a missing value) passes as a NaN force, as there.
     wall_width_m : float or ndarray, shape (c,)
         Width of the wall w, m (the contact length for a wheel sliding sideways).
     soil : SoilParams
@@ -476,7 +481,7 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
     Returns
     -------
     float or ndarray, shape (c,)
-        N (a float for scalar inputs).
+        N (a float for scalar inputs), >= 0.
 
     Raises
     ------
@@ -484,14 +489,21 @@ def bulldozing_force_n(sinkage_m: float, wall_width_m: float, soil: SoilParams) 
         ``wall_width_m`` holding a value that is not a finite length >= 0 (a negative width
         gave a force that pulls the wheel into its slide, NaN a NaN force), naming the
         first such entry.
+    DataFormatError
+        ``sinkage_m`` not a number or a numeric array (``True`` was a 1 m wall, None a NaN
+        force, text NumPy's bare ValueError), named.
     """
     _check_length_array("bulldozing_force_n", "wall_width_m", wall_width_m)
+    if not (type(sinkage_m) is float or type(sinkage_m) is np.ndarray
+            and sinkage_m.dtype.kind == "f"):     # (floats: one type test, per step)
+        refuse_booleans(DataFormatError, "bulldozing_force_n", sinkage_m=sinkage_m)
+        sinkage_m = numeric_array("bulldozing_force_n", "sinkage_m", sinkage_m)
     phi = np.radians(soil.friction_angle_deg)
     n_c, _, n_g = bearing_capacity_factors(soil.friction_angle_deg)
     cos2 = np.cos(phi) ** 2
     k_pc = (n_c - np.tan(phi)) * cos2
     k_pg = (2.0 * n_g / np.tan(phi) + 1.0) * cos2
-    z = np.asarray(sinkage_m, dtype=float)
+    z = np.maximum(np.asarray(sinkage_m, dtype=float), 0.0)     # (NaN stays NaN)
     out = np.asarray(wall_width_m, dtype=float) * (0.67 * soil.cohesion_pa * z * k_pc
                                                    + 0.5 * z * z * soil.unit_weight_n_m3 * k_pg)
     return float(out) if np.ndim(out) == 0 else out

@@ -324,10 +324,12 @@ def can_turn_in_place(geometry, terrain) -> bool:
     return drive > resist
 
 
-def _check_bekker_plate(load_n: float, width_m: float, length_m: float, k_c: float,
-                        k_phi: float, n: float) -> None:
-    """Refuse a load, plate or soil for which Bekker's relation has no sinkage (ConfigError):
-    a load that is not a finite real number (any sign: an unloaded plate does not sink).
+def _check_bekker_plate(owner: str, load_n: float, width_m: float, length_m: float,
+                        k_c: float, k_phi: float, n: float) -> None:
+    """Refuse a load, plate or soil for which Bekker's relation has no sinkage (ConfigError
+    naming ``owner``, the public function called: :func:`bekker_compaction_coefficient`'s
+    errors were named ``bekker_sinkage_m``): a load that is not a finite real number (any
+    sign: an unloaded plate does not sink).
 
     Called some 4000 times by each simulator run's soil tables (the fixed point of
     :func:`terrain.terramechanics.lateral.wheel_sinkage_m`): floats (NumPy's too) that pass
@@ -340,11 +342,11 @@ def _check_bekker_plate(load_n: float, width_m: float, length_m: float, k_c: flo
             and 0.0 < length_m < math.inf and 0.0 < n < math.inf
             and 0.0 < k_c / width_m + k_phi < math.inf):
         return
-    config_numbers("bekker_sinkage_m", load_n=load_n, k_c=k_c, k_phi=k_phi)
+    config_numbers(owner, load_n=load_n, k_c=k_c, k_phi=k_phi)
     if not math.isfinite(load_n):
-        raise ConfigError(f"bekker_sinkage_m.load_n must be a finite load, N, got {load_n!r}")
-    config_positive("bekker_sinkage_m", width_m=width_m, length_m=length_m, n=n)
-    _refuse_bekker_soil("bekker_sinkage_m", width_m, k_c, k_phi, n)
+        raise ConfigError(f"{owner}.load_n must be a finite load, N, got {load_n!r}")
+    config_positive(owner, width_m=width_m, length_m=length_m, n=n)
+    _refuse_bekker_soil(owner, width_m, k_c, k_phi, n)
 
 
 def _check_bekker_soil(owner: str, width_m: float, k_c: float, k_phi: float,
@@ -402,7 +404,7 @@ def bekker_sinkage_m(load_n: float, width_m: float, length_m: float, k_c: float,
         not finite and > 0 (no sinkage solves ``p = (k_c / b + k_phi) z^n``: a negative
         one made the sinkage complex, zero divided by it).
     """
-    _check_bekker_plate(load_n, width_m, length_m, k_c, k_phi, n)
+    _check_bekker_plate("bekker_sinkage_m", load_n, width_m, length_m, k_c, k_phi, n)
     if load_n <= 0:
         return 0.0
     p = load_n / (width_m * length_m)
@@ -429,9 +431,10 @@ def bekker_compaction_coefficient(load_n: float, width_m: float, length_m: float
     Raises
     ------
     ConfigError
-        As :func:`bekker_sinkage_m`.
+        As :func:`bekker_sinkage_m`, named ``bekker_compaction_coefficient``.
     """
-    _check_bekker_plate(load_n, width_m, length_m, k_c, k_phi, n)
+    _check_bekker_plate("bekker_compaction_coefficient", load_n, width_m, length_m, k_c, k_phi,
+                        n)
     if load_n <= 0:
         return 0.0
     z = bekker_sinkage_m(load_n, width_m, length_m, k_c, k_phi, n)
@@ -448,7 +451,9 @@ def compaction_resistance_n(sinkage_m: np.ndarray | float, width_m: float, k_c: 
     Parameters
     ----------
     sinkage_m : float or ndarray, shape (...)
-        Rut depth z, m (>= 0).
+        Rut depth z, m; a negative one (a wheel above the surface) is taken as 0, no rut,
+        the limit of ``R_c`` as ``z -> 0``, as :func:`~terrain.terramechanics.lateral.
+        bulldozing_force_n` takes it; NaN (a missing value) passes as NaN.
     width_m : float
         Contact width b, m.
     k_c, k_phi, n : float

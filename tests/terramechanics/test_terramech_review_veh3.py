@@ -94,8 +94,8 @@ def test_bekker_plate_refuses_a_load_that_is_not_a_finite_number(load_n):
     plate = dict(width_m=0.11, length_m=0.08, k_c=5.27e3, k_phi=1515.04e3, n=0.7)
     with pytest.raises(ConfigError, match=r"bekker_sinkage_m\.load_n"):
         bekker_sinkage_m(load_n, **plate)
-    with pytest.raises(ConfigError, match=r"bekker_sinkage_m\.load_n"):
-        bekker_compaction_coefficient(load_n, **plate)
+    with pytest.raises(ConfigError, match=r"bekker_compaction_coefficient\.load_n"):
+        bekker_compaction_coefficient(load_n, **plate)     # (errx: the function called)
 
 
 @pytest.mark.parametrize("field, value", [("k_c", "5270"), ("k_phi", None)])

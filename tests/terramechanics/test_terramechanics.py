@@ -417,8 +417,8 @@ def test_slip_at_peak_fraction_refuses_a_fraction_outside_0_1_with_a_config_erro
 def test_bekker_sinkage_refuses_a_plate_or_soil_with_no_sinkage(field, args):
     with pytest.raises(ConfigError, match=rf"bekker_sinkage_m(\.|: ){field}"):
         bekker_sinkage_m(*args)
-    with pytest.raises(ConfigError, match=rf"bekker_sinkage_m(\.|: ){field}"):
-        bekker_compaction_coefficient(*args)
+    with pytest.raises(ConfigError, match=rf"bekker_compaction_coefficient(\.|: ){field}"):
+        bekker_compaction_coefficient(*args)     # (errx: named by the function called)
 
 
 @pytest.mark.parametrize("args, field", [
