@@ -295,6 +295,48 @@ class TrainingWindows:
         return np.flatnonzero([u is not None and u in wanted for u in self.units])
 
 
+def refuse_units_within_runs(owner: str, labels, groups, run_ids) -> None:
+    """Refuse split units that cut a run of a class with several runs.
+
+    The run-grouped protocols (``grouped``, ``loro``) estimate how a model does on unseen
+    runs: every window of a run must then be in one split unit, so that a run is never on
+    both sides of a split. The only exception is the time blocks of a single-run class
+    (:func:`split_single_run_classes`): its windows of that run may span several units.
+    Units coarser than a run (several runs in one) are honest and accepted.
+
+    Parameters
+    ----------
+    owner : str
+        Caller, for the message.
+    labels, groups, run_ids : numpy.ndarray
+        ``(n_windows,)`` class, split unit and run of every window.
+
+    Raises
+    ------
+    ConfigError
+        A run whose windows of one class (that class having more than one run) lie in more
+        than one split unit; the message names the run, its class and units (windows or
+        5 s partitions given as ``groups`` made folds with one run on both sides).
+    """
+    frame = pd.DataFrame({"y": np.asarray(labels), "g": np.asarray(groups, dtype=object),
+                          "r": np.asarray(run_ids, dtype=object)})
+    runs_of_class = frame.groupby("y")["r"].nunique()
+    units = frame.groupby(["y", "r"], sort=True)["g"].nunique()
+    bad = units[(units > 1).to_numpy()
+                & (runs_of_class.loc[units.index.get_level_values("y")] > 1).to_numpy()]
+    if len(bad):
+        c, run = bad.index[0]
+        shown = listed(sorted(set(frame.loc[(frame["y"] == c) & (frame["r"] == run),
+                                            "g"].tolist()), key=str))
+        raise ConfigError(f"{owner}: the run-grouped protocols split by run, but groups cut "
+                          f"{len(bad)} run(s) of classes with several runs into several split "
+                          f"units, e.g. run {run!r} of class {c!r} into {bad.iloc[0]} units "
+                          f"({shown}): its windows would be on both sides of a split; give "
+                          "each window its run id as its group (only a single-run class is "
+                          "cut into time blocks, split_single_run_classes), or use the "
+                          "'paper' protocol for partitions")
+
+
 def iter_splits(protocol: str, labels: np.ndarray, groups: np.ndarray, seed: int,
                 n_splits: int = 5) -> Iterator[tuple[np.ndarray, np.ndarray]]:
     """Train/test window indices of one protocol.
@@ -787,7 +829,10 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
     ConfigError
         Unknown ``protocol``, or folds :func:`iter_splits` refuses; ``seeds`` empty, repeated
         or not integers in [0, 2**32 - 1]; ``time_inference`` not an integer >= 0;
-        ``training`` holding windows with a unit of a class that no window of ``y`` holds.
+        ``training`` holding windows with a unit of a class that no window of ``y`` holds;
+        under ``grouped`` or ``loro``, ``groups`` that cut a run of a class with several
+        runs into several units (windows or partitions as groups put one run on both sides
+        of a split: :func:`refuse_units_within_runs`).
     ShapeError
         ``X``, ``groups``, ``run_ids``, ``t_start_s`` or ``t_end_s`` not one entry per label.
     NonFiniteInputError
@@ -814,6 +859,8 @@ def cross_validate(estimator_factory: Callable[[int], object], X: np.ndarray, y:
             raise ShapeError(f"cross_validate: {name} holds {n} entries for {len(y)} labels "
                              "(y): one per window")
     y = y.astype(str)
+    if protocol in ("grouped", "loro"):
+        refuse_units_within_runs("cross_validate", y, groups, run_ids)
     # no seed reached pandas' "No objects to concatenate"; a repeated one counted one split
     # twice; a negative time_inference gave a column of NaN, 2.5 a bare TypeError
     seeds = tuple(seeds)
