@@ -335,12 +335,9 @@ def _check_bekker_plate(owner: str, load_n: float, width_m: float, length_m: flo
     :func:`terrain.terramechanics.lateral.wheel_sinkage_m`): floats (NumPy's too) that pass
     every check below return on the first test; anything else takes the checks.
     """
-    if (isinstance(load_n, float) and isinstance(width_m, float)
-            and isinstance(length_m, float) and isinstance(k_c, float)
-            and isinstance(k_phi, float) and isinstance(n, float)
-            and math.isfinite(load_n) and 0.0 < width_m < math.inf
-            and 0.0 < length_m < math.inf and 0.0 < n < math.inf
-            and 0.0 < k_c / width_m + k_phi < math.inf):
+    if (isinstance(load_n, float) and isinstance(length_m, float)
+            and math.isfinite(load_n) and 0.0 < length_m < math.inf
+            and _bekker_soil_in_range(width_m, k_c, k_phi, n)):
         return
     config_numbers(owner, load_n=load_n, k_c=k_c, k_phi=k_phi)
     if not math.isfinite(load_n):
@@ -354,13 +351,19 @@ def _check_bekker_soil(owner: str, width_m: float, k_c: float, k_phi: float,
     """Refuse a contact width or Bekker soil for which the pressure-sinkage relation has no
     meaning (ConfigError naming ``owner``): floats in range return on the first test (the
     compaction of a slip-sunk rut is evaluated on every simulator step)."""
-    if (isinstance(width_m, float) and isinstance(k_c, float) and isinstance(k_phi, float)
-            and isinstance(n, float) and 0.0 < width_m < math.inf and 0.0 < n < math.inf
-            and 0.0 < k_c / width_m + k_phi < math.inf):
+    if _bekker_soil_in_range(width_m, k_c, k_phi, n):
         return
     config_numbers(owner, k_c=k_c, k_phi=k_phi)
     config_positive(owner, width_m=width_m, n=n)
     _refuse_bekker_soil(owner, width_m, k_c, k_phi, n)
+
+
+def _bekker_soil_in_range(width_m, k_c, k_phi, n) -> bool:
+    """Whether a contact width and Bekker soil are floats (NumPy's too) that every check of
+    :func:`_check_bekker_soil` passes: the one fast test of both Bekker checks."""
+    return (isinstance(width_m, float) and isinstance(k_c, float) and isinstance(k_phi, float)
+            and isinstance(n, float) and 0.0 < width_m < math.inf and 0.0 < n < math.inf
+            and 0.0 < k_c / width_m + k_phi < math.inf)
 
 
 def _refuse_bekker_soil(owner: str, width_m: float, k_c: float, k_phi: float,
