@@ -27,7 +27,8 @@ from typing import Callable, Mapping, Protocol
 import numpy as np
 
 from terrain.control.desired_slip import SlipTable, check_table, select_target
-from terrain.control.estimators import ESTIMATORS, SlipEstimator, estimator_for
+from terrain.control.estimators import (ESTIMATORS, SlipEstimator, check_callable,
+                                        estimator_for)
 from terrain.control.feedforward import feedforward_step, traction_acceleration_limit
 from terrain.control.traction import STEADY, TractionControlConfig, TractionController
 from terrain.errors import ConfigError, config_flags, config_numbers
@@ -220,9 +221,7 @@ class TractionLoop:
         if not callable(terrain_decision):
             raise ConfigError(f"TractionLoop: terrain_decision must be a function of the time, "
                               f"got {type(terrain_decision).__name__} {terrain_decision!r:.60}")
-        if observer is not None and not callable(observer):
-            raise ConfigError(f"TractionLoop: observer must be a function or None, got "
-                              f"{type(observer).__name__} {observer!r:.60}")
+        check_callable("TractionLoop", observer=observer)
         if not callable(getattr(estimator, "update", None)):
             raise ConfigError(f"TractionLoop: estimator must be a SlipEstimator (estimator_for"
                               f"(vehicle)), got {type(estimator).__name__} {estimator!r:.60}")

@@ -372,9 +372,23 @@ class AgriMaRoVisualOdometryEKF:
         self.accel_block_std_m_s2 = np.sqrt(r)
 
 
-def _check_callable(owner: str, **functions) -> None:
-    """Raise a :class:`ConfigError` naming each argument of ``functions`` that is neither
-    callable nor None (a label, a number: a bare TypeError at the first call that used it)."""
+def check_callable(owner: str, **functions) -> None:
+    """Raise a :class:`ConfigError` naming the first argument of ``functions`` that is
+    neither callable nor None (a label, a number: a bare TypeError at the first call that
+    used it); the check of the optional callbacks of the observers and the closed loop.
+
+    Parameters
+    ----------
+    owner : str
+        The refusing class or function, for the message.
+    **functions
+        Argument name -> a callable or None.
+
+    Raises
+    ------
+    ConfigError
+        "<owner>: <name> must be a function or None, got <type> <value>".
+    """
     for name, f in functions.items():
         if f is not None and not callable(f):
             raise ConfigError(f"{owner}: {name} must be a function or None, got "
@@ -610,7 +624,7 @@ class FusedSlipObserver:
                  imu: str = "full-gyro") -> None:
         # inf: a window that keeps every sample, a period that never gives a pseudo-measurement
         config_positive("FusedSlipObserver", window_s=window_s, period_s=period_s)
-        _check_callable("FusedSlipObserver", terrain_decision=terrain_decision)
+        check_callable("FusedSlipObserver", terrain_decision=terrain_decision)
         if imu not in IMU_VIEWS:
             raise ConfigError(f"imu must be one of {', '.join(IMU_VIEWS)}, got {imu!r}")
         self.imu = imu
